@@ -1,0 +1,147 @@
+"""Checkpoints of the training state: a thin layer over `orbax.checkpoint.CheckpointManager`.
+
+One checkpoint = one folder `WORKDIR/checkpoints/<step>/` holding
+  - `state/`:  the whole `TrainState` pytree (params of the four networks, frozen phase params, both
+               optimiser states, step, PRNG key), written by orbax's StandardSave;
+  - `config/`: the experiment `Config` as JSON (so a checkpoint says how it was made);
+  - `extras/`: small JSON-able values saved beside the state (the normalisation statistics).
+
+Atomicity: orbax writes a step into a temporary folder (`<step>.orbax-checkpoint-tmp-<n>`) and renames it
+to `<step>` only once every file is written (tests/test_checkpoints.py checks this), so a run killed while
+saving leaves the previous checkpoint intact and `latest_step` never returns a half-written one.
+Restoring goes onto an abstract state (`jax.eval_shape` of the initial state), which gives orbax the
+shapes, dtypes and shardings without allocating a second copy.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import pathlib
+from typing import Any
+
+import jax
+import numpy as np
+import orbax.checkpoint as ocp
+
+CHECKPOINT_SUBDIR = "checkpoints"
+
+
+class CheckpointError(FileNotFoundError):
+    """A checkpoint folder is missing or unreadable."""
+
+
+def checkpoint_dir(workdir: str | os.PathLike) -> pathlib.Path:
+    """The absolute folder holding the step folders of a run: WORKDIR/checkpoints."""
+    return pathlib.Path(workdir).expanduser().resolve() / CHECKPOINT_SUBDIR
+
+
+def open_manager(
+    workdir: str | os.PathLike,
+    max_to_keep: int = 3,
+    async_save: bool = True,
+    read_only: bool = False,
+) -> ocp.CheckpointManager:
+    """A CheckpointManager on WORKDIR/checkpoints keeping the last `max_to_keep` steps.
+
+    `async_save`: the device-to-host copy happens inside `save`, the file writing in a background thread;
+    call `manager.wait_until_finished()` (or `close(manager)`) before the process exits.
+    """
+    directory = checkpoint_dir(workdir)
+    if read_only and not directory.is_dir():
+        raise CheckpointError(f"no checkpoints in {directory}: train first (bin/train --workdir {workdir})")
+    options = ocp.CheckpointManagerOptions(
+        max_to_keep=None if read_only else max_to_keep,
+        save_interval_steps=0 if read_only else 1,
+        create=not read_only,
+        read_only=read_only,
+        enable_async_checkpointing=async_save,
+        cleanup_tmp_directories=not read_only,
+    )
+    return ocp.CheckpointManager(directory, options=options, item_names=("state", "config", "extras"))
+
+
+def config_to_json(config: Any) -> dict:
+    """A (nested, frozen) dataclass config as a JSON-able dict."""
+    if dataclasses.is_dataclass(config):
+        return json.loads(json.dumps(dataclasses.asdict(config), default=_json_default))
+    return json.loads(json.dumps(config, default=_json_default))
+
+
+def _json_default(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (np.floating, np.integer, np.bool_)):
+        return value.item()
+    if isinstance(value, pathlib.PurePath):
+        return str(value)
+    raise TypeError(f"cannot store {type(value).__name__} in a checkpoint's JSON")
+
+
+def save(manager: ocp.CheckpointManager, step: int, state: Any, config: Any, extras: dict | None = None,
+         force: bool = True) -> bool:
+    """Save `state` as checkpoint `step`, with the config (JSON) and `extras` (JSON-able dict) beside it.
+
+    Returns True when a checkpoint was written (False when orbax's policy skipped the step).
+    """
+    return manager.save(
+        int(step),
+        args=ocp.args.Composite(
+            state=ocp.args.StandardSave(state),
+            config=ocp.args.JsonSave(config_to_json(config)),
+            extras=ocp.args.JsonSave(json.loads(json.dumps(extras or {}, default=_json_default))),
+        ),
+        force=force,
+    )
+
+
+def restore(manager: ocp.CheckpointManager, abstract_state: Any, step: int | None = None):
+    """Restore checkpoint `step` (default: the latest) onto `abstract_state`.
+
+    abstract_state: a pytree of jax.ShapeDtypeStruct (with .sharding) like `jax.eval_shape(init)`.
+    Returns (state, config_json: dict, extras: dict).
+    """
+    if step is None:
+        step = manager.latest_step()
+    if step is None:
+        raise CheckpointError(f"no checkpoint found in {manager.directory}")
+    restored = manager.restore(
+        int(step),
+        args=ocp.args.Composite(
+            state=ocp.args.StandardRestore(abstract_state),
+            config=ocp.args.JsonRestore(),
+            extras=ocp.args.JsonRestore(),
+        ),
+    )
+    return restored["state"], restored["config"], restored["extras"] or {}
+
+
+def read_config_json(workdir: str | os.PathLike, step: int | None = None) -> dict:
+    """The config JSON saved with checkpoint `step` (default latest) of a run, without restoring arrays."""
+    manager = open_manager(workdir, read_only=True)
+    try:
+        step = manager.latest_step() if step is None else step
+        if step is None:
+            raise CheckpointError(f"no checkpoint found in {checkpoint_dir(workdir)}")
+        path = checkpoint_dir(workdir) / str(step) / "config" / "metadata"
+        if path.is_file():
+            return json.loads(path.read_text())
+        return manager.restore(int(step), args=ocp.args.Composite(config=ocp.args.JsonRestore()))["config"]
+    finally:
+        manager.close()
+
+
+def abstract_like(tree: Any) -> Any:
+    """ShapeDtypeStructs (keeping shardings) for a pytree of arrays: what `restore` wants."""
+    def to_struct(x):
+        sharding = getattr(x, "sharding", None)
+        return jax.ShapeDtypeStruct(np.shape(x), x.dtype, sharding=sharding)
+
+    return jax.tree.map(to_struct, tree)
+
+
+def close(manager: ocp.CheckpointManager) -> None:
+    """Wait for pending background writes, then release the manager."""
+    manager.wait_until_finished()
+    manager.close()

@@ -1,0 +1,284 @@
+"""Experiment configuration: frozen dataclasses holding every hyperparameter.
+
+``Config(data, model, loss, train, phase)``. Values from the paper (section 4.4) are marked
+``# paper``; every choice the paper leaves open carries a one-line ``# reason`` comment.
+Named experiments live in the repository's ``configs/NAME.py`` (each defines ``get_config()``);
+load them with :func:`load_config` and change fields with :func:`apply_overrides`::
+
+    config = apply_overrides(load_config("lafan1"), ["model.latent_dim=32", "train.batch_size=8"])
+
+Transition-length convention (CONTRACTS): L = number of generated in-between frames; the start
+keyframe is frame 0 of a training window and the target keyframe is frame L + 1.
+"""
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import json
+import os
+import pathlib
+import types
+import typing
+
+__all__ = [
+    "DataConfig", "ModelConfig", "LossConfig", "TrainConfig", "PhaseConfig", "Config",
+    "load_config", "apply_overrides", "to_dict", "from_dict", "save_config", "read_config",
+    "configs_dir", "ConfigError",
+]
+
+
+class ConfigError(ValueError):
+    """A config name, field or value is wrong; the message says which and how to fix it."""
+
+
+@dataclasses.dataclass(frozen=True)
+class DataConfig:
+    dataset: str = "lafan1"  # reason: which loader builds the windows ("lafan1" or "h36m")
+    data_dir: str = ""  # reason: empty = ../shared/data/<dataset> relative to the repo, or set it
+    train_subjects: tuple = ("subject1", "subject2", "subject3", "subject4")  # paper (RMIB split)
+    window: int = 50  # paper: training windows of 50 frames
+    offset: int = 20  # paper: window offset 20
+    fps: float = 30.0  # LAFAN1 frame rate
+    position_scale: float = 100.0  # reason: cm -> m so FK / stitch / offset inputs are O(1) on LAFAN1
+    velocity_scale: float = 10.0  # reason: root speed in cm/frame / 10 is ~0.5 walking, ~2 sprinting
+    zero_keyframe_velocity: bool = True  # reason: inference gets two poses only, so keyframes carry v=0
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelConfig:
+    # Ablation switches (paper section 5.3); True everywhere = the full model.
+    bidirectional: bool = True  # paper; False = forward generator only, targets the end keyframe
+    latent_interpolation: bool = True  # paper; False = sample from the current-frame Gaussian only
+    bidirectional_aligning: bool = True  # paper; False = each generator targets the given end keyframe
+    phase_modulation: bool = True  # paper; False = plain MLP decoder (no gating, no phase input)
+    # Sizes the paper does not give.
+    encoder_widths: tuple = (512, 512, 256)  # reason: 3 FC layers each (paper); RMIB-like 512/256 widths
+    lstm_size: int = 512  # reason: one LSTM layer over the 3x256 concatenated embeddings (RMIB scale)
+    latent_dim: int = 32  # reason: small latent keeps KL cheap; diversity comes from per-frame sampling
+    decoder_widths: tuple = (512, 512)  # reason: MANN-style 3-layer experts (2 hidden layers of 512)
+    num_experts: int = 4  # paper
+    gating_widths: tuple = (64, 64)  # reason: MANN gating network is a small 3-layer MLP on the phase
+    activation: str = "elu"  # reason: MANN experts and gating use ELU
+    decoder_uses_lstm: bool = True  # reason: decoder also sees the LSTM output, so it keeps temporal
+    # context even when the KL term pulls z to the prior (paper: "embeddings ... input of LSTM")
+    time_to_target_input: bool = True  # reason: offset encoder gets frames-to-target / fps; without it
+    # the generator cannot know when it must arrive (RMIB uses a time-to-arrival signal too)
+    stitch_buffer: int = 4  # reason: K (paper leaves it open); 2K = 8 overlap frames, clipped to L//2
+    variance_blend: str = "std"  # reason: "std" blends mu and sigma linearly (the W2 geodesic between
+    # diagonal Gaussians: sigma stays 1 when both are 1); "var" = law of (1-g)z + g z_t, z independent
+    stop_phase_gradient: bool = True  # reason: the phase network is frozen and only conditions gating
+    disc_widths: tuple = (512, 256)  # reason: RMIB discriminators: temporal conv then 2 dense layers
+    disc_short_window: int = 2  # paper/RMIB short discriminator: 2 frames
+    disc_long_window: int = 10  # paper/RMIB long discriminator: 10 frames
+    disc_features: str = "positions+velocity"  # reason: FK positions relative to the root (J-1)*3,
+    # scaled, plus the scaled root velocity 3: pose and trajectory, invariant to where the clip sits
+
+
+@dataclasses.dataclass(frozen=True)
+class LossConfig:
+    beta_rotation: float = 1.0  # paper beta1
+    beta_velocity: float = 1.0  # paper beta2
+    beta_contact: float = 0.1  # paper beta3
+    kl_weight: float = 1.0  # paper alpha1
+    stitch_weight: float = 0.5  # paper alpha2 (0 = "no stitching loss" ablation)
+    fk_weight: float = 0.5  # paper alpha3
+    disc_weight: float = 0.1  # paper alpha4 (scales L_D in the discriminator update)
+    gen_weight: float = 0.1  # paper alpha5 (scales L_G in the generator update)
+    reduction: str = "sum"  # reason: "sum" = ||.||_1 as written in the paper (sum over components,
+    # mean over frames and batch); "mean" also averages over components
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainConfig:
+    learning_rate: float = 1e-4  # paper
+    adam_b1: float = 0.5  # paper
+    adam_b2: float = 0.9  # paper
+    weight_decay: float = 1e-5  # paper
+    batch_size: int = 32  # paper
+    min_length: int = 5  # paper: progressive schedule starts at 5
+    max_length: int = 48  # reason: 50-frame windows hold 48 in-betweens + 2 keyframes (paper's "50")
+    length_step: int = 1  # paper: +1 ...
+    epochs_per_length: int = 2  # paper: ... every 2 epochs
+    length_counts_keyframes: bool = False  # reason: CONTRACTS: L counts generated frames only
+    num_epochs: int = 100  # reason: (5 -> 48 takes 86 epochs) + some epochs at the full length
+    seed: int = 0  # reason: reproducibility
+    log_every: int = 100  # reason: steps between metric logs
+    checkpoint_every: int = 1  # reason: epochs between checkpoints
+    max_to_keep: int = 3  # reason: orbax CheckpointManager retention
+    output_dir: str = "runs"  # reason: checkpoints + config land in output_dir/<name>
+
+
+@dataclasses.dataclass(frozen=True)
+class PhaseConfig:
+    num_channels: int = 4  # reason: one phase channel per contact joint (LAFAN1 feet: 4)
+    min_frequency: float = 0.25  # DESIGN §5: sinusoid fit F in 0.25..4 Hz
+    max_frequency: float = 4.0  # DESIGN §5
+    fit_window: int = 31  # reason: ~1 s at 30 fps around each frame for the local sinusoid fit
+    hidden_widths: tuple = (256, 256)  # reason: small MLP from one frame's state to the 8 phase features
+    pretrain_steps: int = 5000  # reason: the phase regression converges quickly
+    pretrain_learning_rate: float = 1e-3  # reason: Adam default scale for a small MLP
+    pretrain_batch_size: int = 256  # reason: frames are cheap
+
+    @property
+    def feature_dim(self) -> int:
+        """P = 2 features (A sin, A cos) per channel."""
+        return 2 * self.num_channels
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    data: DataConfig = dataclasses.field(default_factory=DataConfig)
+    model: ModelConfig = dataclasses.field(default_factory=ModelConfig)
+    loss: LossConfig = dataclasses.field(default_factory=LossConfig)
+    train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
+    phase: PhaseConfig = dataclasses.field(default_factory=PhaseConfig)
+    name: str = "default"  # reason: experiment name (run folder, logs)
+
+
+_SECTIONS = ("data", "model", "loss", "train", "phase")
+
+
+# ---------------------------------------------------------------------------------------------
+# Loading named configs
+
+
+def configs_dir() -> pathlib.Path:
+    """The configs folder: $STITCHJAX_CONFIGS, else ``configs/`` beside the package."""
+    env = os.environ.get("STITCHJAX_CONFIGS")
+    if env:
+        return pathlib.Path(env)
+    return pathlib.Path(__file__).resolve().parent.parent / "configs"
+
+
+def available_configs() -> list:
+    folder = configs_dir()
+    return sorted(p.stem for p in folder.glob("*.py") if not p.stem.startswith("_"))
+
+
+def load_config(name: str) -> Config:
+    """Import ``configs/NAME.py`` and return its ``get_config()``; NAME may also be a path to a .py."""
+    path = pathlib.Path(name)
+    if path.suffix != ".py":
+        path = configs_dir() / f"{name}.py"
+    if not path.is_file():
+        raise ConfigError(
+            f"no config named {name!r}: {path} does not exist. Available in {configs_dir()}: "
+            f"{', '.join(available_configs()) or '(none)'}; set STITCHJAX_CONFIGS to another folder.")
+    spec = importlib.util.spec_from_file_location(f"stitchjax_configs_{path.stem}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    if not hasattr(module, "get_config"):
+        raise ConfigError(f"{path} defines no get_config() function")
+    config = module.get_config()
+    if not isinstance(config, Config):
+        raise ConfigError(f"{path}: get_config() returned {type(config).__name__}, not stitchjax Config")
+    return config
+
+
+# ---------------------------------------------------------------------------------------------
+# Overrides
+
+
+def _field_types(cls) -> dict:
+    hints = typing.get_type_hints(cls)
+    return {f.name: hints[f.name] for f in dataclasses.fields(cls)}
+
+
+def _parse_bool(text: str) -> bool:
+    low = text.strip().lower()
+    if low in ("1", "true", "yes", "on"):
+        return True
+    if low in ("0", "false", "no", "off"):
+        return False
+    raise ValueError(f"{text!r} is not a boolean (use true/false)")
+
+
+def _parse_value(text: str, kind, current):
+    if kind is bool:
+        return _parse_bool(text)
+    if kind is int:
+        return int(text)
+    if kind is float:
+        return float(text)
+    if kind is str:
+        return text
+    if kind is tuple or typing.get_origin(kind) is tuple:
+        stripped = text.strip().strip("()[]")
+        parts = [p.strip() for p in stripped.split(",") if p.strip()]
+        element = type(current[0]) if current else str
+        if element is bool:
+            return tuple(_parse_bool(p) for p in parts)
+        return tuple(element(p) for p in parts)
+    raise ValueError(f"cannot parse fields of type {kind}")
+
+
+def apply_overrides(config: Config, overrides) -> Config:
+    """Return a new Config with "section.field=value" overrides applied (values parsed by field type).
+
+    Tuples are written comma separated: ``model.decoder_widths=256,256``. ``name=foo`` sets the name.
+    """
+    for item in overrides or ():
+        if "=" not in item:
+            raise ConfigError(f"override {item!r} must look like section.field=value, e.g. model.latent_dim=32")
+        key, text = item.split("=", 1)
+        key = key.strip()
+        if key == "name":
+            config = dataclasses.replace(config, name=text)
+            continue
+        section, _, field = key.partition(".")
+        if section not in _SECTIONS or not field:
+            raise ConfigError(f"override {item!r}: unknown section {section!r}; use one of {', '.join(_SECTIONS)}")
+        sub = getattr(config, section)
+        types_ = _field_types(type(sub))
+        if field not in types_:
+            raise ConfigError(f"override {item!r}: {section} has no field {field!r}; fields: {', '.join(types_)}")
+        current = getattr(sub, field)
+        try:
+            value = _parse_value(text, types_[field], current)
+        except ValueError as err:
+            raise ConfigError(f"override {item!r}: {err}") from None
+        config = dataclasses.replace(config, **{section: dataclasses.replace(sub, **{field: value})})
+    return config
+
+
+# ---------------------------------------------------------------------------------------------
+# Serialisation
+
+
+def to_dict(config: Config) -> dict:
+    """Plain JSON-ready dict (tuples become lists)."""
+    return json.loads(json.dumps(dataclasses.asdict(config)))
+
+
+def from_dict(d: dict) -> Config:
+    """Inverse of :func:`to_dict`. Unknown keys raise ConfigError; missing keys take defaults."""
+    kwargs = {}
+    classes = {f.name: f.default_factory for f in dataclasses.fields(Config) if f.name in _SECTIONS}
+    for key, value in d.items():
+        if key == "name":
+            kwargs["name"] = value
+            continue
+        if key not in classes:
+            raise ConfigError(f"unknown config section {key!r}")
+        cls = classes[key]
+        types_ = _field_types(cls)
+        fields = {}
+        for name, v in value.items():
+            if name not in types_:
+                raise ConfigError(f"unknown field {key}.{name} (saved by another stitchjax version?)")
+            kind = types_[name]
+            if kind is tuple or typing.get_origin(kind) is tuple:
+                v = tuple(v)
+            fields[name] = v
+        kwargs[key] = cls(**fields)
+    return Config(**kwargs)
+
+
+def save_config(config: Config, path) -> None:
+    """Write the config as JSON (e.g. beside a checkpoint)."""
+    pathlib.Path(path).write_text(json.dumps(to_dict(config), indent=2, sort_keys=True) + "\n")
+
+
+def read_config(path) -> Config:
+    """Read a config written by :func:`save_config`."""
+    return from_dict(json.loads(pathlib.Path(path).read_text()))

@@ -1,0 +1,237 @@
+"""Evaluation metrics for motion in-betweening (float64 numpy).
+
+Two families (DESIGN.md §4 and §6):
+
+* the official LAFAN1 benchmark metrics ``l2q``, ``l2p`` and ``npss``, reproduced exactly
+  (same normalisation, same axes, same weighting as the reference implementation);
+* the paper's metrics ``ade``, ``ade_best``, ``slde``, ``apd`` and ``foot_slide``.
+
+Shape conventions: ``B`` windows, ``T`` scored frames, ``J`` joints, ``S`` samples per window.
+Positions are in the data's units (LAFAN1: centimetres); ``metres_per_unit`` converts them
+(LAFAN1: 0.01, Human3.6M in millimetres: 0.001).
+
+Every aggregated metric also has a ``*_per_window`` (or ``*_parts``) form returning per-window
+numbers, so a caller can process windows in chunks and combine the results exactly.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+LAFAN1_METRES_PER_UNIT = 0.01
+FOOT_HEIGHT_THRESHOLD_CM = 2.5
+
+
+def _f64(x) -> np.ndarray:
+    return np.asarray(x, dtype=np.float64)
+
+
+# --------------------------------------------------------------------------- official LAFAN1
+
+
+def l2q_per_window(prediction, ground_truth) -> np.ndarray:
+    """Official L2Q per window.
+
+    prediction, ground_truth: global quaternions (..., T, J, 4) (w, x, y, z), compared as they are
+    (no sign alignment, as in the official benchmark).
+    Returns (...): the L2 norm over the J*4 numbers of each frame, averaged over the T frames.
+    """
+    diff = _f64(prediction) - _f64(ground_truth)
+    per_frame = np.sqrt(np.sum(diff**2, axis=(-2, -1)))
+    return per_frame.mean(axis=-1)
+
+
+def l2q(prediction, ground_truth) -> float:
+    """Official LAFAN1 L2Q: mean over windows and frames of the per-frame L2 norm of the
+    difference of all global quaternion components. Shapes (B, T, J, 4). Unitless."""
+    return float(np.mean(l2q_per_window(prediction, ground_truth)))
+
+
+def _normalise_positions(global_positions, mean, std) -> np.ndarray:
+    x = _f64(global_positions)
+    flat = x.reshape(x.shape[:-2] + (x.shape[-2] * x.shape[-1],))  # joint-major: j*3 + axis
+    return (flat - _f64(mean).reshape(-1)) / _f64(std).reshape(-1)
+
+
+def l2p_per_window(prediction, ground_truth, mean, std) -> np.ndarray:
+    """Official L2P per window.
+
+    prediction, ground_truth: global positions (..., T, J, 3) in data units.
+    mean, std: (J*3,) training statistics of global positions (joint-major order, j*3 + axis).
+    Returns (...): L2 norm over the J*3 z-scored numbers of each frame, averaged over frames.
+    """
+    diff = _normalise_positions(prediction, mean, std) - _normalise_positions(ground_truth, mean, std)
+    return np.sqrt(np.sum(diff**2, axis=-1)).mean(axis=-1)
+
+
+def l2p(prediction, ground_truth, mean, std) -> float:
+    """Official LAFAN1 L2P: global positions z-scored with the training mean/std, L2 norm over the
+    J*3 numbers per frame, mean over windows and frames. Shapes (B, T, J, 3); unitless."""
+    return float(np.mean(l2p_per_window(prediction, ground_truth, mean, std)))
+
+
+def _flatten_channels(x) -> np.ndarray:
+    """(..., B, T, J, 4) or (..., B, T, D) -> (..., B, T, D); a 2-D input (T, D) stays as is."""
+    x = _f64(x)
+    return x.reshape(x.shape[:-2] + (-1,)) if x.ndim >= 4 else x
+
+
+def npss_parts(prediction, ground_truth) -> tuple[np.ndarray, np.ndarray]:
+    """Pieces of the official NPSS, per window, so chunks of windows can be combined exactly.
+
+    prediction: (..., B, T, D) or (..., B, T, J, 4); ground_truth: (B, T, D) or (B, T, J, 4).
+    Time is axis -2 of the flattened (..., B, T, D) arrays.
+    Returns (weighted_emd (..., B), power (B,)): per window, the sum over channels of
+    emd * ground-truth total power, and the sum over channels of ground-truth total power.
+    NPSS = sum(weighted_emd) / sum(power) over all windows.
+    """
+    pred = _flatten_channels(prediction)
+    gt = _flatten_channels(ground_truth)
+
+    def normalised_cumulative_power(x):
+        power = np.real(np.fft.fft(x, axis=-2)) ** 2
+        total = power.sum(axis=-2)
+        return np.cumsum(power / total[..., None, :], axis=-2), total
+
+    cdf_gt, gt_total = normalised_cumulative_power(gt)
+    cdf_pred, _ = normalised_cumulative_power(pred)
+    emd = np.sum(np.abs(cdf_pred - cdf_gt), axis=-2)  # (..., B, D): L1 over frequency
+    return np.sum(emd * gt_total, axis=-1), gt_total.sum(axis=-1)
+
+
+def npss(prediction, ground_truth) -> float:
+    """Official LAFAN1 NPSS (Gopalakrishnan et al. 2019, as in the LAFAN1 benchmark).
+
+    prediction, ground_truth: (B, T, D) or (B, T, J, 4) (flattened to D = J*4 channels).
+    Real part of the FFT over time, squared, normalised per (window, channel) by its total,
+    cumulative sum, L1 distance between the two cumulative curves, averaged over all
+    (window, channel) pairs weighted by the ground truth's total power. Unitless.
+    """
+    weighted, power = npss_parts(prediction, ground_truth)
+    return float(np.sum(weighted) / np.sum(power))
+
+
+# --------------------------------------------------------------------------- paper metrics
+
+
+def displacement_per_window(samples, ground_truth) -> np.ndarray:
+    """Mean Euclidean joint distance per window, in data units.
+
+    samples: (..., B, T, J, 3) global positions; ground_truth: (B, T, J, 3).
+    Returns (..., B): distance per joint averaged over joints and frames.
+    """
+    d = np.linalg.norm(_f64(samples) - _f64(ground_truth), axis=-1)
+    return d.mean(axis=(-2, -1))
+
+
+def ade(samples, ground_truth, metres_per_unit: float = LAFAN1_METRES_PER_UNIT) -> float:
+    """Average displacement error in metres, averaged over samples, windows, frames and joints.
+
+    samples: (S, B, T, J, 3) global positions of S samples (or (B, T, J, 3) for one);
+    ground_truth: (B, T, J, 3). Data units times ``metres_per_unit`` gives metres.
+    """
+    return float(np.mean(displacement_per_window(samples, ground_truth)) * metres_per_unit)
+
+
+def ade_best(samples, ground_truth, metres_per_unit: float = LAFAN1_METRES_PER_UNIT) -> float:
+    """Best-of-S ADE in metres: per window the sample with the lowest ADE, averaged over windows.
+
+    samples: (S, B, T, J, 3); ground_truth: (B, T, J, 3).
+    """
+    per = displacement_per_window(samples, ground_truth)
+    per = per.reshape((-1, per.shape[-1]))
+    return float(np.mean(per.min(axis=0)) * metres_per_unit)
+
+
+def slde(samples, ground_truth, metres_per_unit: float = LAFAN1_METRES_PER_UNIT) -> float:
+    """Second-last-frame displacement error in metres: ADE at the last *generated* frame
+    (the frame before the target keyframe), averaged over samples, windows and joints.
+
+    samples: (S, B, T, J, 3) with T the generated frames (or (B, T, J, 3)); ground_truth (B, T, J, 3).
+    """
+    s = _f64(samples)[..., -1:, :, :]
+    g = _f64(ground_truth)[..., -1:, :, :]
+    return ade(s, g, metres_per_unit)
+
+
+def apd_per_window(samples) -> np.ndarray:
+    """Average pairwise distance per window, in data units.
+
+    samples: (S, B, T, J, 3) global positions. For each window, the mean over the S(S-1)/2 pairs
+    of samples of the Euclidean distance between their flattened (T*J*3) sequences.
+    Returns (B,); zeros when S == 1.
+    """
+    x = _f64(samples)
+    num_samples, num_windows = x.shape[0], x.shape[1]
+    if num_samples < 2:
+        return np.zeros(num_windows)
+    flat = x.reshape(num_samples, num_windows, -1)
+    total = np.zeros(num_windows)
+    for i in range(num_samples - 1):
+        diff = flat[i + 1 :] - flat[i]  # (S-i-1, B, D)
+        total += np.sqrt(np.sum(diff**2, axis=-1)).sum(axis=0)
+    return total / (num_samples * (num_samples - 1) / 2)
+
+
+def apd(samples, metres_per_unit: float = LAFAN1_METRES_PER_UNIT) -> float:
+    """Average pairwise distance in metres (diversity), averaged over windows.
+
+    samples: (S, B, T, J, 3) global positions. 0 for S == 1 or identical samples.
+    """
+    return float(np.mean(apd_per_window(samples)) * metres_per_unit)
+
+
+def ground_heights(global_positions, feet, up_axis: int = 1) -> np.ndarray:
+    """Ground height per window: the lowest foot-joint height over all frames of the window.
+
+    global_positions: (B, T, J, 3) ground-truth positions of the whole window; feet: joint indices.
+    Returns (B,) in data units.
+    """
+    heights = _f64(global_positions)[..., :, list(feet), up_axis]
+    return heights.min(axis=(-2, -1))
+
+
+def foot_slide_parts(
+    global_positions,
+    ground,
+    feet,
+    metres_per_unit: float = LAFAN1_METRES_PER_UNIT,
+    height_threshold_cm: float = FOOT_HEIGHT_THRESHOLD_CM,
+    up_axis: int = 1,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pieces of the foot-slide metric, per window.
+
+    global_positions: (..., B, T, J, 3) in data units; ground: (B,) ground heights (data units).
+    For each foot joint and frame t < T-1: horizontal displacement from t to t+1 (cm) weighted by
+    w = clip(2 - 2^(h/H), 0, 1), h = height at frame t above the ground, H = height_threshold_cm.
+    Returns (weighted_sum_cm (..., B), count (..., B)) where count = number of (joint, frame)
+    pairs with w > 0.
+    """
+    x = _f64(global_positions)[..., list(feet), :]  # (..., B, T, F, 3)
+    cm_per_unit = metres_per_unit * 100.0
+    horizontal = [a for a in range(3) if a != up_axis]
+    step = x[..., 1:, :, :] - x[..., :-1, :, :]
+    displacement_cm = np.linalg.norm(step[..., horizontal], axis=-1) * cm_per_unit  # (..., B, T-1, F)
+    height_cm = (x[..., :-1, :, up_axis] - _f64(ground)[:, None, None]) * cm_per_unit
+    weight = np.clip(2.0 - np.power(2.0, height_cm / height_threshold_cm), 0.0, 1.0)
+    return (weight * displacement_cm).sum(axis=(-2, -1)), (weight > 0).sum(axis=(-2, -1)).astype(np.float64)
+
+
+def foot_slide(
+    global_positions,
+    ground,
+    feet,
+    metres_per_unit: float = LAFAN1_METRES_PER_UNIT,
+    height_threshold_cm: float = FOOT_HEIGHT_THRESHOLD_CM,
+    up_axis: int = 1,
+) -> float:
+    """Foot slide in cm/frame: the sum of weighted horizontal foot displacements divided by the
+    number of (joint, frame) pairs with non-zero weight, pooled over all windows (and samples).
+
+    global_positions: (..., B, T, J, 3) data units; ground: (B,) data units (see ``ground_heights``);
+    feet: foot joint indices (LAFAN1: ankles and toes, (3, 4, 7, 8)). 0 when no foot is near the ground.
+    """
+    weighted, count = foot_slide_parts(
+        global_positions, ground, feet, metres_per_unit, height_threshold_cm, up_axis
+    )
+    total = float(np.sum(count))
+    return float(np.sum(weighted)) / total if total > 0 else 0.0

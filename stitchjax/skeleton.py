@@ -1,0 +1,163 @@
+"""Skeletons and forward / inverse kinematics.
+
+A :class:`Skeleton` is static data (names, parents, bone offsets) that can be passed to ``jax.jit``
+as a static argument. FK and IK take the parents tuple and work on any leading batch shape, with
+numpy (float64 data pipeline) or jax.numpy (model) arrays.
+"""
+from __future__ import annotations
+
+import dataclasses
+from functools import lru_cache
+
+import numpy as np
+
+from stitchjax import rotations as R
+
+# LAFAN1 skeleton (DESIGN.md §4): 22 joints, Y-up, centimetres, 30 fps.
+LAFAN1_JOINTS = (
+    "Hips", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToe", "RightUpLeg", "RightLeg", "RightFoot",
+    "RightToe", "Spine", "Spine1", "Spine2", "Neck", "Head", "LeftShoulder", "LeftArm", "LeftForeArm",
+    "LeftHand", "RightShoulder", "RightArm", "RightForeArm", "RightHand",
+)
+LAFAN1_PARENTS = (-1, 0, 1, 2, 3, 0, 5, 6, 7, 0, 9, 10, 11, 12, 11, 14, 15, 16, 11, 18, 19, 20)
+LAFAN1_FEET = (3, 4, 7, 8)  # LeftFoot, LeftToe, RightFoot, RightToe: the contact channels, in this order.
+LAFAN1_FPS = 30.0
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Skeleton:
+    """Joint hierarchy. ``parents[j] < j`` for every non-root joint; the root's parent is -1.
+
+    Attributes:
+      names: joint names, (J,).
+      parents: parent index of each joint, (J,).
+      offsets: bone offsets from each joint's parent in the parent's frame, (J, 3), file units.
+    """
+
+    names: tuple
+    parents: tuple
+    offsets: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "names", tuple(str(n) for n in self.names))
+        object.__setattr__(self, "parents", tuple(int(p) for p in self.parents))
+        offsets = np.array(self.offsets, dtype=np.float64).reshape(len(self.parents), 3)
+        offsets.setflags(write=False)
+        object.__setattr__(self, "offsets", offsets)
+        if len(self.names) != len(self.parents):
+            raise ValueError(f"{len(self.names)} joint names but {len(self.parents)} parents")
+        check_parents(self.parents)
+
+    @property
+    def num_joints(self) -> int:
+        return len(self.parents)
+
+    def index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise KeyError(f"no joint named {name!r}; joints are {', '.join(self.names)}") from None
+
+    def children(self, joint: int) -> tuple:
+        return tuple(j for j, p in enumerate(self.parents) if p == joint)
+
+    @property
+    def depths(self) -> tuple:
+        return _depths(self.parents)
+
+    def _key(self):
+        return (self.names, self.parents, self.offsets.tobytes())
+
+    def __eq__(self, other):
+        return isinstance(other, Skeleton) and self._key() == other._key()
+
+    def __hash__(self):
+        return hash(self._key())
+
+    def __repr__(self):
+        return f"Skeleton({self.num_joints} joints, root={self.names[0]!r})"
+
+
+def lafan1_skeleton(offsets) -> Skeleton:
+    """The LAFAN1 skeleton with the given bone offsets (22, 3) in cm."""
+    return Skeleton(LAFAN1_JOINTS, LAFAN1_PARENTS, offsets)
+
+
+def check_parents(parents) -> None:
+    """Raise ValueError unless ``parents`` is a valid topologically ordered hierarchy with one root."""
+    for j, p in enumerate(parents):
+        if j == 0 and p != -1:
+            raise ValueError("joint 0 must be the root (parent -1)")
+        if j > 0 and not 0 <= p < j:
+            raise ValueError(f"joint {j} has parent {p}; parents must come before their children")
+
+
+@lru_cache(maxsize=None)
+def _depths(parents: tuple) -> tuple:
+    depth = []
+    for p in parents:
+        depth.append(0 if p < 0 else depth[p] + 1)
+    return tuple(depth)
+
+
+@lru_cache(maxsize=None)
+def _levels(parents: tuple) -> tuple:
+    """Joints grouped by depth below the root: ((joints at depth 1), (their parents)), ..."""
+    depth = _depths(parents)
+    levels = []
+    for d in range(1, max(depth) + 1 if depth else 1):
+        joints = tuple(j for j in range(len(parents)) if depth[j] == d)
+        levels.append((joints, tuple(parents[j] for j in joints)))
+    return tuple(levels)
+
+
+def forward_kinematics(local_rotations, local_positions, parents):
+    """Local joint transforms to global ones.
+
+    Args:
+      local_rotations: (..., J, 4) unit quaternions relative to each parent.
+      local_positions: (..., J, 3): the root's position and each joint's offset from its parent.
+      parents: static tuple (J,) of parent indices, -1 for the root.
+    Returns:
+      (global_rotations (..., J, 4), global_positions (..., J, 3)).
+    Joints sharing a depth are computed together, so the traced graph has one step per tree level.
+    """
+    parents = tuple(parents)
+    xp = R._xp(local_rotations, local_positions)
+    n = len(parents)
+    lr = [local_rotations[..., j, :] for j in range(n)]
+    lp = [local_positions[..., j, :] for j in range(n)]
+    grot = [None] * n
+    gpos = [None] * n
+    grot[0], gpos[0] = lr[0], lp[0]
+    for joints, pars in _levels(parents):
+        prot = xp.stack([grot[p] for p in pars], axis=-2)
+        ppos = xp.stack([gpos[p] for p in pars], axis=-2)
+        rot = R.quat_mul(prot, xp.stack([lr[j] for j in joints], axis=-2))
+        pos = R.quat_rotate(prot, xp.stack([lp[j] for j in joints], axis=-2)) + ppos
+        for i, j in enumerate(joints):
+            grot[j] = rot[..., i, :]
+            gpos[j] = pos[..., i, :]
+    return xp.stack(grot, axis=-2), xp.stack(gpos, axis=-2)
+
+
+def inverse_kinematics(global_rotations, global_positions, parents):
+    """Global joint transforms to local ones; the inverse of :func:`forward_kinematics`.
+
+    Args:
+      global_rotations: (..., J, 4) unit quaternions; global_positions: (..., J, 3).
+      parents: static tuple (J,) of parent indices.
+    Returns:
+      (local_rotations (..., J, 4), local_positions (..., J, 3)).
+    """
+    parents = tuple(parents)
+    xp = R._xp(global_rotations, global_positions)
+    par = np.array([max(p, 0) for p in parents])
+    prot = global_rotations[..., par, :]
+    pinv = R.quat_conjugate(prot)
+    local_rot = R.quat_mul(pinv, global_rotations)
+    local_pos = R.quat_rotate(pinv, global_positions - global_positions[..., par, :])
+    root = np.array([p < 0 for p in parents])[:, None]
+    local_rot = xp.where(root, global_rotations, local_rot)
+    local_pos = xp.where(root, global_positions, local_pos)
+    return local_rot, local_pos
