@@ -1,0 +1,645 @@
+"""Training: the train state, one jitted train step, the progressive length schedule and the loop.
+
+Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `train`):
+
+- `TrainState`: step, params {"forward", "backward", "disc_short", "disc_long"}, phase_params (frozen after
+  pretraining), gen_opt_state, disc_opt_state, key (a raw uint32 PRNG key).
+- `create_train_state(config, key, phase_params, mesh)`: initialisation inside `jax.jit`; the same function
+  under `jax.eval_shape` gives the abstract state a checkpoint is restored onto.
+- `make_train_step(config, mesh)` -> `train_step(state, dataset, length) -> (state, metrics)`, jitted with the
+  state donated. The whole training set lives on the device(s) as arrays with a leading window axis; each
+  step draws its batch indices on device from `fold_in(state.key, state.step)`, gathers the windows, runs ONE
+  rollout per generator (inside `losses.generator_loss`), and updates both generators and both
+  discriminators with separate AdamW optimisers. `length` (the transition length) is a traced int32, so
+  the progressive schedule never recompiles.
+- `transition_length(step, steps_per_epoch, train_config)`: 5 -> max_length, +1 every 2 epochs.
+- `train(config, workdir, ...)`: phase pretraining, resume, the loop (progress bar, metrics JSON lines,
+  periodic checkpoints, NaN guard, Ctrl-C / SIGTERM save), then report.md and loss_curves.png.
+
+Parallelism (the same code runs on 1 CPU, 1 GPU, several GPUs or a TPU slice):
+  A `Mesh` over all devices with axes ("hosts", "devices"): the batch is sharded over both axes (data
+  parallelism), params and optimiser states are replicated, and XLA inserts the gradient all-reduce. The
+  training set is sharded over "hosts" and replicated over the devices of a host; inside `shard_map` each
+  device gathers its own slice of the batch from its host's windows, so no window crosses hosts.
+  Within one process the batch indices are drawn from one key and sliced per device, so the data order
+  (and the result, up to float summation order) does not depend on the number of devices.
+Multi-process (several hosts, e.g. a TPU pod slice or a multi-node GPU job):
+  Run the same command on every host. `bin/train --distributed` (or any of the environment variables
+  JAX_COORDINATOR_ADDRESS / JAX_NUM_PROCESSES / JAX_PROCESS_ID, or a cluster jax detects itself such as
+  SLURM or Cloud TPU) calls `jax.distributed.initialize()` before anything else touches jax. Each process
+  then keeps windows i with i % process_count == process_index (truncated to the same count on every host),
+  draws its share of every batch from them, and process 0 alone writes metrics, the report and the
+  progress bar; orbax coordinates the checkpoint writes of all processes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import pathlib
+import signal
+import time
+from typing import Any, Callable
+
+import flax.struct
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+from jax.sharding import Mesh, NamedSharding
+from jax.sharding import PartitionSpec as P
+
+from stitchjax import checkpoints
+
+GENERATORS = ("forward", "backward")
+DISCRIMINATORS = ("disc_short", "disc_long")
+BATCH_AXES = ("hosts", "devices")
+
+
+class TrainingError(RuntimeError):
+    """Training cannot go on (bad data, bad config, non-finite loss)."""
+
+
+class NonFiniteLossError(TrainingError):
+    """A loss term became NaN or infinite; the message names the term and the step."""
+
+
+class TrainState(flax.struct.PyTreeNode):
+    """Everything a training run needs to continue, as one pytree (what a checkpoint holds).
+
+    step: int32 scalar, number of updates done. params: {"forward", "backward", "disc_short", "disc_long"}.
+    phase_params: pretrained phase network (not updated by train_step; None-free pytree, may be {}).
+    gen_opt_state / disc_opt_state: AdamW states over {"forward","backward"} / {"disc_short","disc_long"}.
+    key: uint32 (2,) PRNG key; step n uses fold_in(key, n), so resuming replays the same randomness.
+    """
+
+    step: jax.Array
+    params: dict
+    phase_params: Any
+    gen_opt_state: Any
+    disc_opt_state: Any
+    key: jax.Array
+
+
+# --------------------------------------------------------------------------------------------- devices
+
+
+def make_mesh(devices=None) -> Mesh:
+    """A ("hosts", "devices") mesh over all visible devices (hosts = process count)."""
+    devices = list(jax.devices() if devices is None else devices)
+    num_hosts = len({d.process_index for d in devices})
+    devices = sorted(devices, key=lambda d: (d.process_index, d.id))
+    grid = np.array(devices, dtype=object).reshape(num_hosts, len(devices) // num_hosts)
+    return Mesh(grid, BATCH_AXES)
+
+
+def replicated(mesh: Mesh) -> NamedSharding:
+    return NamedSharding(mesh, P())
+
+
+def maybe_initialize_distributed(force: bool = False) -> bool:
+    """Call `jax.distributed.initialize()` when asked or when the standard env vars say so.
+
+    Must run before any other jax call. Returns True when distributed mode was initialised.
+    """
+    env = ("JAX_COORDINATOR_ADDRESS", "JAX_NUM_PROCESSES", "JAX_PROCESS_ID")
+    if not force and not any(os.environ.get(name) for name in env):
+        return False
+    jax.distributed.initialize()
+    return True
+
+
+def shard_dataset(dataset: dict, mesh: Mesh) -> dict:
+    """Put this process's windows on its devices: leading axis split over hosts, replicated on devices.
+
+    dataset: dict of numpy arrays with the same leading window count N_local (this process's windows).
+    Every process must pass the same N_local (see `local_windows_slice`).
+    """
+    sharding = NamedSharding(mesh, P("hosts"))
+    num_hosts = mesh.shape["hosts"]
+
+    def put(x):
+        x = np.asarray(x)
+        if x.dtype == np.float64:
+            x = x.astype(np.float32)
+        if num_hosts == 1:
+            return jax.device_put(x, sharding)
+        global_shape = (x.shape[0] * num_hosts,) + x.shape[1:]
+        return jax.make_array_from_process_local_data(sharding, x, global_shape)
+
+    return {name: put(x) for name, x in dataset.items()}
+
+
+def local_windows_slice(num_windows: int) -> slice:
+    """The windows this process trains on: every process_count-th, same count on every process."""
+    count, index = jax.process_count(), jax.process_index()
+    per_process = num_windows // count
+    if per_process == 0:
+        raise TrainingError(f"{num_windows} training windows cannot be split over {count} processes")
+    return slice(index, index + per_process * count, count)
+
+
+def sample_batch(dataset: dict, key: jax.Array, batch_size: int, mesh: Mesh, window: int | None = None) -> dict:
+    """Draw `batch_size` windows uniformly (with replacement) on device; batch sharded over the mesh.
+
+    dataset: dict of (N, T, ...) arrays sharded as by `shard_dataset`. window: keep frames [0, window)
+    (static; None = all). Within one process the indices come from one key and each device takes its
+    slice, so the batch does not depend on the device count.
+    """
+    num_hosts, per_host_devices = mesh.shape["hosts"], mesh.shape["devices"]
+    if batch_size % (num_hosts * per_host_devices):
+        raise TrainingError(
+            f"train.batch_size={batch_size} is not divisible by the {num_hosts * per_host_devices} devices; "
+            "pick a multiple of the device count")
+    host_batch = batch_size // num_hosts
+    device_batch = host_batch // per_host_devices
+
+    def local(key, data):
+        host = jax.lax.axis_index("hosts")
+        device = jax.lax.axis_index("devices")
+        num_local = jax.tree.leaves(data)[0].shape[0]
+        indices = jax.random.randint(jax.random.fold_in(key, host), (host_batch,), 0, num_local)
+        indices = jax.lax.dynamic_slice_in_dim(indices, device * device_batch, device_batch)
+        return jax.tree.map(lambda x: (x[indices] if window is None else x[indices, :window]), data)
+
+    return jax.shard_map(
+        local, mesh=mesh, in_specs=(P(), P("hosts")), out_specs=P(BATCH_AXES), check_vma=False,
+    )(key, dataset)
+
+
+# ------------------------------------------------------------------------------------------ optimisers
+
+
+def make_optimizer(train_config) -> optax.GradientTransformation:
+    """AdamW with the paper's settings (lr 1e-4, b1 0.5, b2 0.9, weight decay 1e-5 by default)."""
+    return optax.adamw(
+        learning_rate=train_config.learning_rate,
+        b1=train_config.adam_b1,
+        b2=train_config.adam_b2,
+        weight_decay=train_config.weight_decay,
+    )
+
+
+def split_params(params: dict) -> tuple[dict, dict]:
+    """{"forward","backward","disc_short","disc_long"} -> (generators, discriminators)."""
+    return {k: params[k] for k in GENERATORS}, {k: params[k] for k in DISCRIMINATORS}
+
+
+def create_train_state(config, key: jax.Array, phase_params: Any = None, mesh: Mesh | None = None) -> TrainState:
+    """Fresh state (step 0): networks initialised from `key`, optimiser states zero, replicated on `mesh`.
+
+    phase_params: pretrained phase network params, or None to initialise it randomly (phase.init_phase_params)
+    — the value when phase modulation is off, and the structure used for restoring.
+    """
+    from stitchjax import networks  # model side, imported late so this module imports without it
+
+    optimizer = make_optimizer(config.train)
+    mesh = make_mesh() if mesh is None else mesh
+    init_key, phase_key, state_key = jax.random.split(key, 3)
+
+    def init(init_key, phase_key, state_key, phase_params):
+        params = networks.init_params(config, init_key)
+        if phase_params is None:
+            phase_params = init_phase_params(config, phase_key)
+        generators, discriminators = split_params(params)
+        return TrainState(
+            step=jnp.zeros((), jnp.int32),
+            params=params,
+            phase_params=phase_params,
+            gen_opt_state=optimizer.init(generators),
+            disc_opt_state=optimizer.init(discriminators),
+            key=state_key,
+        )
+
+    return jax.jit(init, out_shardings=replicated(mesh))(init_key, phase_key, state_key, phase_params)
+
+
+def init_phase_params(config, key: jax.Array) -> Any:
+    """Randomly initialised phase network params ({} when the model does not use one)."""
+    from stitchjax import phase
+
+    return phase.init_phase_params(key, state_dim(config), config)
+
+
+def state_dim(config) -> int:
+    """Per-frame character state size J*4 + 7 (local quats, root velocity, contacts)."""
+    from stitchjax import features
+
+    return features.state_dim(config) if hasattr(features, "state_dim") else config.data.num_joints * 4 + 7
+
+
+def abstract_train_state(config, mesh: Mesh | None = None) -> TrainState:
+    """ShapeDtypeStructs (with replicated shardings) of the train state: the target for `restore`."""
+    mesh = make_mesh() if mesh is None else mesh
+    return jax.eval_shape(lambda key: create_train_state(config, key, None, mesh), jax.random.PRNGKey(0))
+
+
+# ---------------------------------------------------------------------------------------- train step
+
+
+def global_norm(tree) -> jax.Array:
+    return optax.global_norm(tree)
+
+
+def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
+                    generator_loss: Callable | None = None, discriminator_loss: Callable | None = None):
+    """Build the jitted `train_step(state, dataset, length) -> (state, metrics)`.
+
+    dataset: dict of (N, T, ...) arrays from `shard_dataset`. length: int32 transition length (traced).
+    window: frames per training window seen by the losses (static; None = the dataset's T). Metrics: the
+    generator "loss", "disc_loss", every term of both, "length", gradient norms; all float32 scalars.
+    The state argument is donated: do not use the old state after the call.
+    """
+    if generator_loss is None or discriminator_loss is None:
+        from stitchjax import losses
+
+        generator_loss = generator_loss or losses.generator_loss
+        discriminator_loss = discriminator_loss or losses.discriminator_loss
+    mesh = make_mesh() if mesh is None else mesh
+    optimizer = make_optimizer(config.train)
+    batch_size = config.train.batch_size
+
+    def step(state: TrainState, dataset: dict, length: jax.Array):
+        key = jax.random.fold_in(state.key, state.step)
+        batch_key, gen_key, disc_key = jax.random.split(key, 3)
+        batch = sample_batch(dataset, batch_key, batch_size, mesh, window)
+        generators, discriminators = split_params(state.params)
+
+        def gen_objective(gen_params):
+            out = generator_loss({**gen_params, **discriminators}, state.phase_params, batch, gen_key,
+                                 config, length)
+            loss, terms = out[0], out[1]
+            aux = out[2] if len(out) > 2 else None
+            return loss, (terms, aux)
+
+        (gen_loss, (gen_terms, aux)), gen_grads = jax.value_and_grad(gen_objective, has_aux=True)(generators)
+
+        def disc_objective(disc_params):
+            params = {**jax.lax.stop_gradient(generators), **disc_params}
+            extra = () if aux is None else (jax.lax.stop_gradient(aux),)
+            out = discriminator_loss(params, state.phase_params, batch, disc_key, config, length, *extra)
+            return out[0], out[1]
+
+        (disc_loss, disc_terms), disc_grads = jax.value_and_grad(disc_objective, has_aux=True)(discriminators)
+
+        gen_updates, gen_opt_state = optimizer.update(gen_grads, state.gen_opt_state, generators)
+        disc_updates, disc_opt_state = optimizer.update(disc_grads, state.disc_opt_state, discriminators)
+        new_params = {**optax.apply_updates(generators, gen_updates),
+                      **optax.apply_updates(discriminators, disc_updates)}
+        metrics = {"loss": gen_loss, "disc_loss": disc_loss}
+        metrics.update({name: value for name, value in gen_terms.items() if name not in metrics})
+        metrics.update({(name if name not in metrics else f"disc_{name}"): value
+                        for name, value in disc_terms.items()})
+        metrics["gen_grad_norm"] = global_norm(gen_grads)
+        metrics["disc_grad_norm"] = global_norm(disc_grads)
+        metrics = {name: jnp.asarray(value, jnp.float32) for name, value in metrics.items()}
+        metrics["length"] = jnp.asarray(length, jnp.int32)
+        new_state = state.replace(step=state.step + 1, params=new_params, gen_opt_state=gen_opt_state,
+                                  disc_opt_state=disc_opt_state)
+        return new_state, metrics
+
+    rep = replicated(mesh)
+    return jax.jit(step, donate_argnums=(0,), out_shardings=(rep, rep))
+
+
+# ------------------------------------------------------------------------------------------- schedule
+
+
+def steps_per_epoch(num_windows: int, batch_size: int) -> int:
+    """Steps per pass over the training windows (at least 1)."""
+    return max(1, num_windows // batch_size)
+
+
+def transition_length(step: int, steps_per_epoch: int, train_config) -> int:
+    """Progressive transition length: min_length, +1 every `epochs_per_length` epochs, up to max_length."""
+    grow = int(step) // max(1, int(round(train_config.epochs_per_length * steps_per_epoch)))
+    return int(min(train_config.max_length, train_config.min_length + grow))
+
+
+def bucket_window(length: int, train_config) -> int | None:
+    """Static window (frames) for `length` when train.length_buckets is set, else None (full window)."""
+    buckets = tuple(sorted(train_config.length_buckets or ()))
+    if not buckets:
+        return None
+    for bucket in buckets:
+        if length <= bucket:
+            return bucket + 2
+    raise TrainingError(f"transition length {length} exceeds the largest of train.length_buckets={buckets}")
+
+
+def check_finite(metrics: dict, step: int) -> None:
+    """Raise NonFiniteLossError naming the first non-finite metric (loss term) at `step`."""
+    for name, value in metrics.items():
+        if not np.all(np.isfinite(value)):
+            raise NonFiniteLossError(
+                f"loss term '{name}' is {float(np.asarray(value))} at step {step}: training stopped; the "
+                "last good checkpoint is kept (lower train.learning_rate or check the data, then resume)")
+
+
+# --------------------------------------------------------------------------------------------- logging
+
+
+class MetricsLog:
+    """Appends one JSON object per logged step to WORKDIR/metrics.jsonl (process 0 only)."""
+
+    def __init__(self, path: str | os.PathLike, enabled: bool = True):
+        self.path = pathlib.Path(path)
+        self.enabled = enabled
+
+    def truncate_after(self, step: int) -> None:
+        """Drop records past `step` (left by a run that died after logging them but before saving)."""
+        if not (self.enabled and self.path.is_file()):
+            return
+        kept = [line for line in self.path.read_text().splitlines()
+                if line.strip() and json.loads(line).get("step", 0) <= step]
+        self.path.write_text("".join(line + "\n" for line in kept))
+
+    def write(self, record: dict) -> None:
+        if not self.enabled:
+            return
+        with self.path.open("a") as f:
+            f.write(json.dumps(record) + "\n")
+
+
+def read_metrics(path: str | os.PathLike) -> list[dict]:
+    """The records of a metrics.jsonl file."""
+    path = pathlib.Path(path)
+    if not path.is_file():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def plot_loss_curves(records: list[dict], path: str | os.PathLike) -> None:
+    """One panel per logged loss term against step (matplotlib, Agg backend)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    skip = {"step", "windows_per_s", "time_s", "length", "epoch"}
+    names = [n for n in records[0] if n not in skip] if records else []
+    cols = 3
+    rows = max(1, math.ceil((len(names) + 1) / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(4 * cols, 2.6 * rows), squeeze=False)
+    steps = [r["step"] for r in records]
+    for ax, name in zip(axes.flat, names + ["length"]):
+        ax.plot(steps, [r.get(name, np.nan) for r in records], lw=1)
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("step", fontsize=8)
+        ax.tick_params(labelsize=7)
+    for ax in list(axes.flat)[len(names) + 1:]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def write_report(workdir: pathlib.Path, config_name: str, records: list[dict], summary: dict) -> None:
+    """WORKDIR/report.md: steps, time, throughput, final value of every logged term."""
+    lines = [f"# Training report: {config_name}", "",
+             f"- steps: {summary['step']} (this invocation: {summary['steps_run']}, "
+             f"started at step {summary['start_step']})",
+             f"- wall time (this invocation): {summary['wall_s']:.1f} s, of which first-step compile "
+             f"{summary['compile_s']:.1f} s",
+             f"- throughput: {summary['windows_per_s']:.1f} windows/s; devices: {summary['devices']}",
+             f"- training windows: {summary['num_windows']}; batch {summary['batch_size']}; "
+             f"final transition length {summary['length']}",
+             f"- stopped because: {summary['stop_reason']}", ""]
+    if records:
+        last = records[-1]
+        lines += ["| term | first logged | final |", "|---|---|---|"]
+        for name in last:
+            if name in ("step", "time_s"):
+                continue
+            lines.append(f"| {name} | {records[0].get(name, float('nan')):.5g} | {last[name]:.5g} |")
+    lines += ["", "Loss curves: loss_curves.png; every logged step: metrics.jsonl."]
+    (workdir / "report.md").write_text("\n".join(lines) + "\n")
+
+
+# ---------------------------------------------------------------------------------------------- data
+
+
+def load_training_data(config, data_dir: str | os.PathLike | None):
+    """(dataset dict of (N, T, ...) numpy arrays, stats) for config.data; data_dir None = bundled sample."""
+    from stitchjax import features
+
+    windows, stats = load_windows_and_stats(config, data_dir)
+    dataset = features.prepare_dataset(windows, stats, config)
+    return {name: np.asarray(x) for name, x in dataset.items()}, stats
+
+
+def load_windows_and_stats(config, data_dir):
+    """Training windows and normalisation statistics of the dataset named by config.data."""
+    data = config.data
+    dataset_name = getattr(data, "dataset", "lafan1")
+    if dataset_name == "lafan1":
+        from stitchjax import lafan1
+
+        if data_dir is None:
+            from stitchjax import sample
+
+            data_dir = sample.sample_dir()
+        data_dir = pathlib.Path(data_dir)
+        if not data_dir.is_dir():
+            raise FileNotFoundError(f"--data {data_dir}: no such folder (expected LAFAN1 .bvh files)")
+        kwargs = dict(window=data.window, offset=data.offset)
+        windows = lafan1.load_windows(data_dir, data.train_subjects, **kwargs)
+        stats = lafan1.train_statistics(data_dir, data.train_subjects, **kwargs)
+        return windows, stats
+    if dataset_name == "h36m":
+        from stitchjax import h36m
+
+        if data_dir is None:
+            raise FileNotFoundError("the h36m config needs --data DIR (the Human3.6M exponential-map folder)")
+        windows = h36m.load_windows(data_dir, data.train_subjects, window=data.window, offset=data.offset)
+        stats = h36m.train_statistics(data_dir, data.train_subjects, window=data.window, offset=data.offset) \
+            if hasattr(h36m, "train_statistics") else None
+        return windows, stats
+    raise ValueError(f"config.data.dataset={dataset_name!r}: expected 'lafan1' or 'h36m'")
+
+
+def stats_to_json(stats) -> dict:
+    """Normalisation statistics (namedtuple/dataclass/dict of arrays) as a JSON-able dict."""
+    if stats is None:
+        return {}
+    if hasattr(stats, "_asdict"):
+        items = stats._asdict()
+    elif dataclasses.is_dataclass(stats):
+        items = {f.name: getattr(stats, f.name) for f in dataclasses.fields(stats)}
+    else:
+        items = dict(stats)
+    return {name: np.asarray(value).tolist() for name, value in items.items()}
+
+
+def pretrain_phase_params(config, dataset: dict, key: jax.Array):
+    """Pretrain the phase network on every frame of the training windows; (params, final_loss)."""
+    from stitchjax import features, phase
+
+    states = features.dataset_states(dataset, config) if hasattr(features, "dataset_states") else None
+    if states is None:
+        raise TrainingError("features.dataset_states is missing: cannot pretrain the phase network")
+    states = np.asarray(states).reshape(-1, np.shape(states)[-1])
+    labels = np.asarray(dataset["phase"]).reshape(states.shape[0], -1)
+    return phase.pretrain_phase(key, states, labels, config)
+
+
+# ------------------------------------------------------------------------------------------------ loop
+
+
+class _StopFlag:
+    """Turns the first SIGINT / SIGTERM into a request to save and stop; a second one interrupts."""
+
+    def __init__(self):
+        self.requested = None
+        self._previous = {}
+
+    def __enter__(self):
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            try:
+                self._previous[sig] = signal.signal(sig, self._handle)
+            except ValueError:  # not the main thread: no signal handling
+                pass
+        return self
+
+    def _handle(self, signum, frame):
+        if self.requested is not None:
+            raise KeyboardInterrupt
+        self.requested = signal.Signals(signum).name
+
+    def __exit__(self, *exc):
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        return False
+
+
+def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | None = None,
+          max_steps: int | None = None, config_name: str = "", progress: bool = True,
+          dataset: dict | None = None, stats: Any = None, train_step: Callable | None = None,
+          mesh: Mesh | None = None) -> dict:
+    """Train (or resume) a run in `workdir` until `max_steps` (default config.train.max_steps).
+
+    dataset/stats: pass prepared arrays to skip loading (tests, notebooks); otherwise they are loaded from
+    `data_dir` (None = the bundled LAFAN1 sample). train_step: a replacement step function (tests).
+    Returns a summary dict (step, losses, wall time, stop_reason). Raises NonFiniteLossError on NaN/inf.
+    """
+    workdir = pathlib.Path(workdir).expanduser().resolve()
+    is_main = jax.process_index() == 0
+    workdir.mkdir(parents=True, exist_ok=True)
+    tc = config.train
+    max_steps = tc.max_steps if max_steps is None else int(max_steps)
+    mesh = make_mesh() if mesh is None else mesh
+
+    if dataset is None:
+        dataset, stats = load_training_data(config, data_dir)
+    num_windows = int(next(iter(dataset.values())).shape[0])
+    if num_windows == 0:
+        raise TrainingError("no training windows: check --data and config.data (window length, subjects)")
+    local = local_windows_slice(num_windows)
+    device_data = shard_dataset({k: v[local] for k, v in dataset.items()}, mesh)
+    per_epoch = steps_per_epoch(num_windows, tc.batch_size)
+
+    manager = checkpoints.open_manager(workdir, max_to_keep=tc.max_to_keep)
+    log = MetricsLog(workdir / "metrics.jsonl", enabled=is_main)
+    key = jax.random.PRNGKey(tc.seed)
+    latest = manager.latest_step()
+    if latest is not None:
+        state, _, _ = checkpoints.restore(manager, abstract_train_state(config, mesh), latest)
+        log.truncate_after(int(latest))
+    else:
+        phase_params = None
+        if getattr(config.model, "phase_modulation", False):
+            phase_params, phase_loss = pretrain_phase_params(config, dataset, jax.random.fold_in(key, 1))
+            if is_main:
+                print(f"phase network pretrained: final loss {float(phase_loss):.4g}")
+        state = create_train_state(config, key, phase_params, mesh)
+    extras = {"stats": stats_to_json(stats), "config_name": config_name}
+    start_step = int(state.step)
+
+    steps: dict = {}
+
+    def step_fn(length: int):
+        if train_step is not None:
+            return train_step
+        window = bucket_window(length, tc)
+        if window not in steps:
+            steps[window] = make_train_step(config, mesh, window)
+        return steps[window]
+
+    bar = None
+    if progress and is_main:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=max_steps, initial=start_step, unit="step", dynamic_ncols=True)
+    stop_reason = "reached max_steps"
+    t_start = time.perf_counter()
+    compile_s = 0.0
+    t_log, windows_since_log = time.perf_counter(), 0
+    last_saved = latest
+    step = start_step
+    length = transition_length(step, per_epoch, tc)
+    try:
+        with _StopFlag() as stop:
+            while step < max_steps:
+                length = transition_length(step, per_epoch, tc)
+                t0 = time.perf_counter()
+                state, metrics = step_fn(length)(state, device_data, jnp.int32(length))
+                metrics = jax.device_get(metrics)
+                if step == start_step:
+                    compile_s = time.perf_counter() - t0
+                    t_log, windows_since_log = time.perf_counter(), 0
+                else:
+                    windows_since_log += tc.batch_size
+                step += 1
+                check_finite(metrics, step)
+                if step % tc.log_every == 0 or step == max_steps:
+                    now = time.perf_counter()
+                    rate = windows_since_log / max(now - t_log, 1e-9)
+                    record = {"step": step, **{k: float(v) for k, v in metrics.items()},
+                              "length": int(length), "epoch": step / per_epoch,
+                              "windows_per_s": rate, "time_s": now - t_start}
+                    log.write(record)
+                    t_log, windows_since_log = now, 0
+                    if bar is not None:
+                        bar.set_postfix(loss=f"{record['loss']:.4g}", L=length, win_s=f"{rate:.0f}")
+                if bar is not None:
+                    bar.update(1)
+                if step % tc.checkpoint_every == 0 and step != max_steps:
+                    checkpoints.save(manager, step, state, config, extras)
+                    last_saved = step
+                if stop.requested:
+                    stop_reason = f"{stop.requested} received"
+                    break
+    except NonFiniteLossError as error:
+        if bar is not None:
+            bar.close()
+        checkpoints.close(manager)
+        raise NonFiniteLossError(
+            f"{error} (checkpoint kept: {'none' if last_saved is None else f'step {last_saved}'} in "
+            f"{checkpoints.checkpoint_dir(workdir)})") from None
+    except KeyboardInterrupt:
+        stop_reason = "interrupted"
+    if bar is not None:
+        bar.close()
+    if last_saved != step:
+        checkpoints.save(manager, step, state, config, extras)
+    checkpoints.close(manager)
+
+    wall = time.perf_counter() - t_start
+    steps_run = step - start_step
+    timed = max(steps_run - 1, 0)
+    summary = {
+        "step": step, "start_step": start_step, "steps_run": steps_run, "wall_s": wall,
+        "compile_s": compile_s, "stop_reason": stop_reason, "length": int(length),
+        "windows_per_s": timed * tc.batch_size / max(wall - compile_s, 1e-9) if timed else 0.0,
+        "devices": f"{jax.device_count()} x {jax.devices()[0].platform}",
+        "num_windows": num_windows, "batch_size": tc.batch_size, "workdir": str(workdir),
+    }
+    if is_main:
+        records = read_metrics(log.path)
+        summary["final"] = records[-1] if records else {}
+        write_report(workdir, config_name or "config", records, summary)
+        if records:
+            plot_loss_curves(records, workdir / "loss_curves.png")
+    return summary
