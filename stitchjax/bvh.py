@@ -480,7 +480,7 @@ def _format_hierarchy(motion: Motion, channels, end_sites) -> list:
         for c in skeleton.children(j):
             write(c, depth + 1)
         for offset in sites.get(j, []):
-            lines += [f"{pad}\tEnd Site", f"{pad}\t{{", f"{pad}\t\tOFFSET {vec(offset)}", f"{pad}\t}}"]
+            lines.extend([f"{pad}\tEnd Site", f"{pad}\t{{", f"{pad}\t\tOFFSET {vec(offset)}", f"{pad}\t}}"])
         lines.append(pad + "}")
 
     write(0, 0)

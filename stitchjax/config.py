@@ -17,7 +17,6 @@ import importlib.util
 import json
 import os
 import pathlib
-import types
 import typing
 
 __all__ = [
@@ -41,7 +40,6 @@ class DataConfig:
     fps: float = 30.0  # LAFAN1 frame rate
     position_scale: float = 100.0  # reason: cm -> m so FK / stitch / offset inputs are O(1) on LAFAN1
     velocity_scale: float = 10.0  # reason: root speed in cm/frame / 10 is ~0.5 walking, ~2 sprinting
-    zero_keyframe_velocity: bool = True  # reason: inference gets two poses only, so keyframes carry v=0
 
 
 @dataclasses.dataclass(frozen=True)

@@ -618,8 +618,11 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
         raise NonFiniteLossError(
             f"{error} (checkpoint kept: {'none' if last_saved is None else f'step {last_saved}'} in "
             f"{checkpoints.checkpoint_dir(workdir)})") from None
-    except KeyboardInterrupt:
-        stop_reason = "interrupted"
+    except KeyboardInterrupt:  # a second Ctrl-C: the state may be mid-update, so do not save it
+        if bar is not None:
+            bar.close()
+        checkpoints.close(manager)
+        raise
     if bar is not None:
         bar.close()
     if last_saved != step:

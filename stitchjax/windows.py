@@ -1,0 +1,221 @@
+"""Fixed-length motion windows: slicing, foot contacts, centring + facing alignment, time reversal.
+
+The facts reproduced here are those of the official LAFAN1 benchmark code (DESIGN.md §4):
+
+- window starts ``0, offset, 2*offset, ...`` while ``start + window < T`` (strict: a window never
+  ends on the file's last frame);
+- contacts are computed on the *raw* window (before alignment) from FK global positions: a foot joint
+  is in contact at frame t when ``|p[t+1] - p[t]|² < 0.02`` (file units², cm² for LAFAN1); the last
+  frame repeats the previous frame's value;
+- centring subtracts, from the root's x and z, their mean over the whole window (y untouched);
+- facing: forward = (root global rotation at ``frame``) applied to (0, 1, 0), y zeroed, normalised;
+  the whole window is rotated about the vertical axis through the origin so that forward becomes +X;
+  local transforms are recovered by inverse kinematics.
+
+Everything works on numpy float64 arrays with leading window axis N and is vectorised over windows
+(no Python loop over windows or frames).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from stitchjax import rotations as R
+from stitchjax.skeleton import Skeleton, forward_kinematics, inverse_kinematics
+
+__all__ = [
+    "Windows", "window_starts", "window_indices", "foot_contacts", "contacts_from_displacement",
+    "center_and_face", "CONTACT_THRESHOLD", "FACING_FRAME",
+]
+
+CONTACT_THRESHOLD = 0.02  # squared displacement per frame, file units² (cm² for LAFAN1)
+FACING_FRAME = 9  # the last of the 10 context frames of the LAFAN1 benchmark
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Windows:
+    """A batch of N fixed-length clips of T frames on one skeleton (J joints).
+
+    Attributes:
+      rotations: (N, T, J, 4) local unit quaternions (w, x, y, z).
+      positions: (N, T, J, 3) local positions, file units (LAFAN1: cm): the root's position in the
+        world and every other joint's offset from its parent.
+      contacts: (N, T, C) foot contacts as 0./1. floats, one channel per foot joint in the order of
+        the dataset's feet (LAFAN1: LeftFoot, LeftToe, RightFoot, RightToe).
+      skeleton: the joint hierarchy (its offsets are those of the first file loaded).
+      fps: frames per second.
+      sources: N strings ``"<file name>:<start frame>"`` telling where each window comes from.
+    """
+
+    rotations: np.ndarray
+    positions: np.ndarray
+    contacts: np.ndarray
+    skeleton: Skeleton
+    fps: float
+    sources: list
+
+    def __post_init__(self):
+        n, t, j = np.shape(self.rotations)[:3]
+        if (np.shape(self.rotations) != (n, t, j, 4) or np.shape(self.positions) != (n, t, j, 3)
+                or np.shape(self.contacts)[:2] != (n, t) or np.ndim(self.contacts) != 3):
+            raise ValueError(
+                "Windows needs rotations (N, T, J, 4), positions (N, T, J, 3) and contacts (N, T, C); "
+                f"got {np.shape(self.rotations)}, {np.shape(self.positions)}, {np.shape(self.contacts)}")
+        if j != self.skeleton.num_joints:
+            raise ValueError(f"Windows have {j} joints but the skeleton has {self.skeleton.num_joints}")
+        if len(self.sources) != n:
+            raise ValueError(f"{len(self.sources)} sources for {n} windows")
+        object.__setattr__(self, "sources", list(self.sources))
+
+    @property
+    def num_windows(self) -> int:
+        return int(np.shape(self.rotations)[0])
+
+    @property
+    def window_length(self) -> int:
+        return int(np.shape(self.rotations)[1])
+
+    def __len__(self) -> int:
+        return self.num_windows
+
+    def __getitem__(self, index) -> "Windows":
+        """A subset of windows (a slice, an index array or a boolean mask); an int keeps one window."""
+        if isinstance(index, (int, np.integer)):
+            index = [int(index)]
+        picked = np.arange(self.num_windows)[index]
+        return dataclasses.replace(
+            self, rotations=self.rotations[picked], positions=self.positions[picked],
+            contacts=self.contacts[picked], sources=[self.sources[i] for i in np.atleast_1d(picked)])
+
+    def global_transforms(self):
+        """(global rotations (N, T, J, 4), global positions (N, T, J, 3)) by forward kinematics."""
+        return forward_kinematics(self.rotations, self.positions, self.skeleton.parents)
+
+    def global_positions(self) -> np.ndarray:
+        """(N, T, J, 3) joint positions in the world, file units."""
+        return self.global_transforms()[1]
+
+    def global_rotations(self) -> np.ndarray:
+        """(N, T, J, 4) joint orientations in the world."""
+        return self.global_transforms()[0]
+
+    def reversed(self) -> "Windows":
+        """The same windows played backwards in time (frames and contacts reversed), for training
+        the backward generator. ``w.reversed().reversed()`` equals ``w``."""
+        return dataclasses.replace(
+            self, rotations=self.rotations[:, ::-1].copy(), positions=self.positions[:, ::-1].copy(),
+            contacts=self.contacts[:, ::-1].copy())
+
+    def __repr__(self):
+        return (f"Windows({self.num_windows} windows x {self.window_length} frames, "
+                f"{self.skeleton.num_joints} joints, fps={self.fps:g})")
+
+
+def window_starts(num_frames: int, window: int, offset: int) -> np.ndarray:
+    """Start frames ``0, offset, 2*offset, ...`` of the windows with ``start + window < num_frames``.
+
+    The inequality is strict, as in the official LAFAN1 code: a file of exactly ``window`` frames
+    gives no window. Returns an int64 array (possibly empty).
+    """
+    if window < 1 or offset < 1:
+        raise ValueError(f"window and offset must be positive, got window={window}, offset={offset}")
+    last = int(num_frames) - int(window) - 1  # the largest allowed start
+    if last < 0:
+        return np.zeros((0,), dtype=np.int64)
+    return np.arange(0, last + 1, int(offset), dtype=np.int64)
+
+
+def window_indices(starts, window: int) -> np.ndarray:
+    """(N, window) frame indices ``starts[:, None] + arange(window)`` for gathering windows."""
+    return np.asarray(starts, dtype=np.int64)[:, None] + np.arange(int(window), dtype=np.int64)
+
+
+def contacts_from_displacement(squared_displacement, threshold: float = CONTACT_THRESHOLD):
+    """Contacts from per-frame squared displacements ``|p[t+1] - p[t]|²`` of shape (..., T-1, C):
+    ``< threshold`` as 0./1. floats, with the last frame repeating the previous one -> (..., T, C)."""
+    moving = (squared_displacement < threshold).astype(np.float64)
+    return np.concatenate([moving, moving[..., -1:, :]], axis=-2)
+
+
+def foot_contacts(global_positions, feet, threshold: float = CONTACT_THRESHOLD) -> np.ndarray:
+    """Binary foot contacts from global joint positions.
+
+    Args:
+      global_positions: (..., T, J, 3) FK positions of the raw (unaligned) window, file units, T >= 2.
+      feet: joint indices of the contact channels, e.g. ``LAFAN1_FEET = (3, 4, 7, 8)``.
+      threshold: a joint is in contact when its squared displacement to the next frame is below this
+        (0.02 cm² for LAFAN1).
+    Returns:
+      (..., T, len(feet)) float 0./1.; the last frame repeats the previous frame's value.
+    """
+    p = np.asarray(global_positions)[..., list(feet), :]
+    if p.shape[-3] < 2:
+        raise ValueError(f"foot contacts need at least 2 frames, got {p.shape[-3]}")
+    d = np.sum((p[..., 1:, :, :] - p[..., :-1, :, :]) ** 2, axis=-1)
+    return contacts_from_displacement(d, threshold).astype(p.dtype if p.dtype.kind == "f" else np.float64)
+
+
+def facing_rotation(root_global_rotation):
+    """Rotation about +Y that takes the horizontal forward direction of ``root_global_rotation``
+    (..., 4) (its local +Y axis, y zeroed) onto +X. Returns (..., 4) unit quaternions.
+
+    Built as in the official code: ``yrot = between(+X, forward)`` and the window is then rotated by
+    ``yrot⁻¹``; returned here is ``yrot⁻¹``. A forward direction opposite to +X (where the shortest
+    arc is undefined) gives the half turn about +Y.
+    """
+    q = np.asarray(root_global_rotation)
+    up = np.zeros(q.shape[:-1] + (3,), dtype=q.dtype)
+    up[..., 1] = 1.0
+    forward = R.quat_rotate(q, up) * np.array([1.0, 0.0, 1.0], dtype=q.dtype)
+    forward = forward / (np.sqrt(np.sum(forward * forward, axis=-1, keepdims=True)) + 1e-8)
+    x_axis = np.zeros_like(forward)
+    x_axis[..., 0] = 1.0
+    # Shortest arc +X -> forward: (|x||f| + x.f, x cross f), normalised.
+    w = np.sqrt(np.sum(forward * forward, axis=-1)) + forward[..., 0]
+    yrot = np.concatenate([w[..., None], np.cross(x_axis, forward)], axis=-1)
+    norm = np.sqrt(np.sum(yrot * yrot, axis=-1, keepdims=True))
+    half_turn = np.array([0.0, 0.0, 1.0, 0.0], dtype=q.dtype)
+    yrot = np.where(norm > 1e-12, yrot / np.maximum(norm, 1e-300), half_turn)
+    return R.quat_conjugate(yrot)
+
+
+def center_and_face(rotations, positions, parents, frame: int = FACING_FRAME, *,
+                    return_global: bool = False):
+    """Centre each window on the ground plane and turn it to face +X at ``frame``.
+
+    Args:
+      rotations: (N, T, J, 4) local quaternions; positions: (N, T, J, 3) local positions (file units).
+      parents: parent index per joint (root first).
+      frame: the frame whose root orientation defines "forward" (9 for LAFAN1: the last context frame).
+      return_global: also return the aligned global rotations and positions (saves an FK pass).
+    Returns:
+      (rotations, positions) aligned local transforms with the input shapes, and with
+      ``return_global`` also (global_rotations, global_positions).
+
+    Order (official code): centring first — subtract the window-mean of the root's x and z from the
+    root's local position — then FK, rotate every global rotation and position by the facing
+    rotation about +Y through the origin, and IK back to local transforms.
+    """
+    rotations = np.asarray(rotations)
+    positions = np.array(positions, copy=True)
+    if rotations.ndim < 4:
+        raise ValueError(f"center_and_face needs (N, T, J, 4) windows, got shape {rotations.shape}")
+    if not 0 <= frame < rotations.shape[-3]:
+        raise ValueError(f"facing frame {frame} is outside windows of {rotations.shape[-3]} frames")
+    root_xz = positions[..., :, 0, :][..., [0, 2]]  # (..., T, 2)
+    mean_xz = np.mean(root_xz, axis=-2, keepdims=True)  # (..., 1, 2)
+    positions[..., :, 0, 0] -= mean_xz[..., 0]
+    positions[..., :, 0, 2] -= mean_xz[..., 1]
+    grot, gpos = forward_kinematics(rotations, positions, parents)
+    grot, gpos = _apply_facing(grot, gpos, frame)
+    lrot, lpos = inverse_kinematics(grot, gpos, parents)
+    if return_global:
+        return lrot, lpos, grot, gpos
+    return lrot, lpos
+
+
+def _apply_facing(global_rotations, global_positions, frame):
+    """Rotate whole windows (..., T, J, *) about +Y so the root faces +X at ``frame``."""
+    turn = facing_rotation(global_rotations[..., frame, 0, :])[..., None, None, :]  # (..., 1, 1, 4)
+    return R.quat_mul(turn, global_rotations), R.quat_rotate(turn, global_positions)
