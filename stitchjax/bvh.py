@@ -137,6 +137,8 @@ def _read_text(path: pathlib.Path) -> str:
             data = gzip.decompress(data)
         except (OSError, EOFError) as e:
             raise BVHError(f"{path}: corrupt gzip data ({e})") from None
+    if data[:3] == b"\xef\xbb\xbf":  # UTF-8 byte order mark
+        data = data[3:]
     return data.decode("latin-1")
 
 
@@ -150,7 +152,7 @@ class _Tokens:
             for tok in line.replace("{", " { ").replace("}", " } ").split():
                 self.items.append((tok, first_line + n))
         self.i = 0
-        self.last_line = first_line + max(len(lines) - 1, 0)
+        self.last_line = first_line + len(lines)  # the MOTION line
 
     def error(self, message, line=None):
         if line is None:
@@ -273,7 +275,7 @@ def _header_value(path, lines, index, key, first_line):
         raise BVHError(f"{path}, line {first_line + index}: file ends before the '{key}:' line")
     line = lines[index].strip()
     label, _, value = line.partition(":")
-    if label.strip().lower() != key.lower():
+    if " ".join(label.split()).lower() != key.lower():
         raise BVHError(f"{path}, line {first_line + index}: expected '{key}: <number>', found {line!r}")
     try:
         return float(value)
@@ -306,7 +308,7 @@ def _find_bad_line(path, body: str, first_line: int, num_channels: int, num_fram
         frames += 1
     if frames < num_frames:
         return BVHError(f"{path}, line {line_no}: motion block is truncated: 'Frames: {num_frames}' "
-                        f"but the file ends after {frames} frames")
+                        f"but the file ends after {frames} frames (the last one on this line)")
     return BVHError(f"{path}: could not read the motion block (lines {first_line}-{line_no})")
 
 
@@ -453,9 +455,16 @@ def _local_to_channels(motion: Motion, channels) -> np.ndarray:
             groups.setdefault(_pad_order(order), []).append((j, rot_cols))
     for order, members in groups.items():
         joints = [j for j, _ in members]
-        angles = np.rad2deg(R.quat_to_euler(R.quat_normalize(rotations[:, joints]), order))
+        angles = R.quat_to_euler(R.quat_normalize(rotations[:, joints]), order)
         for i, (_, cols) in enumerate(members):
-            values[:, cols] = angles[:, i, : len(cols)]
+            a = angles[:, i]
+            if len(cols) < 3:
+                # Only the first len(cols) angles are written, so pick, of the two equivalent
+                # Tait-Bryan triples (a, b, c) and (a + pi, pi - b, c + pi), the one with c near 0.
+                flip = np.abs(a[:, 2]) > np.pi / 2
+                other = np.stack([a[:, 0] + np.pi, np.pi - a[:, 1], a[:, 2] + np.pi], axis=-1)
+                a = np.where(flip[:, None], (other + np.pi) % (2 * np.pi) - np.pi, a)
+            values[:, cols] = np.rad2deg(a[:, : len(cols)])
     return values
 
 
@@ -505,13 +514,9 @@ def save(path, motion: Motion) -> None:
     values = _local_to_channels(motion, channels)
     lines = _format_hierarchy(motion, channels, end_sites)
     lines += ["MOTION", f"Frames: {motion.num_frames}", f"Frame Time: {1.0 / motion.fps:.8g}"]
-    out = io.StringIO()
-    out.write("\n".join(lines) + "\n")
-    if values.shape[1]:
-        np.savetxt(out, values, fmt="%.6f", delimiter=" ")
-    else:
-        out.write("\n" * motion.num_frames)
-    data = out.getvalue().encode("latin-1")
+    row = " ".join(["%.6f"] * values.shape[1]) + "\n"
+    frames = (row * values.shape[0]) % tuple(values.ravel().tolist())
+    data = ("\n".join(lines) + "\n" + frames).encode("latin-1")
     if path.suffix == ".gz":
         data = gzip.compress(data, compresslevel=6, mtime=0)
     with open(path, "wb") as f:

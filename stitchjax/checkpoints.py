@@ -63,9 +63,9 @@ def open_manager(
 
 
 def config_to_json(config: Any) -> dict:
-    """A (nested, frozen) dataclass config as a JSON-able dict."""
+    """A (nested, frozen) dataclass config, or a dict, as a JSON-able dict."""
     if dataclasses.is_dataclass(config):
-        return json.loads(json.dumps(dataclasses.asdict(config), default=_json_default))
+        config = dataclasses.asdict(config)
     return json.loads(json.dumps(config, default=_json_default))
 
 
@@ -81,7 +81,9 @@ def _json_default(value):
 
 def save(manager: ocp.CheckpointManager, step: int, state: Any, config: Any, extras: dict | None = None,
          force: bool = True) -> bool:
-    """Save `state` as checkpoint `step`, with the config (JSON) and `extras` (JSON-able dict) beside it.
+    """Save `state` as checkpoint `step`, with the config and `extras` (JSON-able dict) beside it as JSON.
+
+    config: a dataclass config or its JSON-able dict (`stitchjax.config.to_dict`).
 
     Returns True when a checkpoint was written (False when orbax's policy skipped the step).
     """

@@ -40,6 +40,13 @@ class DataConfig:
     fps: float = 30.0  # LAFAN1 frame rate
     position_scale: float = 100.0  # reason: cm -> m so FK / stitch / offset inputs are O(1) on LAFAN1
     velocity_scale: float = 10.0  # reason: root speed in cm/frame / 10 is ~0.5 walking, ~2 sprinting
+    parents: tuple = (-1, 0, 1, 2, 3, 0, 5, 6, 7, 0, 9, 10, 11, 12, 11, 14, 15, 16, 11, 18, 19, 20)
+    # reason: FK inside the losses needs static parents; LAFAN1's 22 joints (h36m configs set theirs)
+    num_contacts: int = 4  # reason: contact channels in the state (LAFAN1 feet: LeftFoot/Toe, RightFoot/Toe)
+
+    @property
+    def num_joints(self) -> int:
+        return len(self.parents)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -104,23 +111,28 @@ class TrainConfig:
     checkpoint_every: int = 1  # reason: epochs between checkpoints
     max_to_keep: int = 3  # reason: orbax CheckpointManager retention
     output_dir: str = "runs"  # reason: checkpoints + config land in output_dir/<name>
+    # --- fields added by the train helper (stitchjax/train.py) ---
+    max_steps: int = 0  # reason: 0 = num_epochs epochs; > 0 caps the run (bin/train --max-steps)
+    checkpoint_every_steps: int = 0  # reason: > 0 overrides checkpoint_every (epochs) with a step count
+    length_buckets: tuple = ()  # reason: () = one compiled step, traced length masked inside the
+    # full window (measured faster overall, see benchmarks/train_step.py); e.g. 10,20,30,48 = one
+    # compile per bucket, window cut to bucket + 2 frames
 
 
 @dataclasses.dataclass(frozen=True)
 class PhaseConfig:
-    num_channels: int = 4  # reason: one phase channel per contact joint (LAFAN1 feet: 4)
+    # Field names follow stitchjax.phase.PhaseSettings (the phase module reads them by name).
+    window_seconds: float = 1.0  # reason: +-1 s fit window holds >= 1 period for F >= 0.5 Hz
     min_frequency: float = 0.25  # DESIGN §5: sinusoid fit F in 0.25..4 Hz
     max_frequency: float = 4.0  # DESIGN §5
-    fit_window: int = 31  # reason: ~1 s at 30 fps around each frame for the local sinusoid fit
-    hidden_widths: tuple = (256, 256)  # reason: small MLP from one frame's state to the 8 phase features
-    pretrain_steps: int = 5000  # reason: the phase regression converges quickly
-    pretrain_learning_rate: float = 1e-3  # reason: Adam default scale for a small MLP
-    pretrain_batch_size: int = 256  # reason: frames are cheap
-
-    @property
-    def feature_dim(self) -> int:
-        """P = 2 features (A sin, A cos) per channel."""
-        return 2 * self.num_channels
+    num_frequencies: int = 31  # reason: 0.125 Hz grid, finer than a 2 s window resolves
+    smoothing_seconds: float = 0.05  # reason: removes 1-2 frame contact flicker
+    ridge: float = 1.0  # reason: keeps near-degenerate low-frequency fits finite
+    hidden_dim: int = 128  # reason: small MLP from one frame's state to the 8 phase features
+    num_layers: int = 2  # reason: two ELU hidden layers suffice for the phase regression
+    steps: int = 5000  # reason: the phase regression converges quickly
+    batch_size: int = 512  # reason: frames are cheap
+    learning_rate: float = 1e-3  # reason: Adam default scale for a small MLP
 
 
 @dataclasses.dataclass(frozen=True)

@@ -25,7 +25,6 @@ becomes one through ``stitchjax.inbetween`` (see bin/evaluate).
 """
 from __future__ import annotations
 
-import dataclasses
 import sys
 from typing import TYPE_CHECKING, Callable, Mapping, Protocol, Sequence
 
@@ -89,19 +88,6 @@ def _bone_offsets(offsets, num_joints: int) -> np.ndarray:
 
 def _parents(windows) -> tuple:
     return tuple(int(p) for p in windows.skeleton.parents)
-
-
-def take_windows(windows: "Windows", index) -> "Windows":
-    """The windows selected by ``index`` (a slice or index array), as a new Windows object."""
-    updates = {}
-    for name in ("rotations", "positions", "contacts"):
-        value = getattr(windows, name, None)
-        if value is not None:
-            updates[name] = value[index]
-    sources = getattr(windows, "sources", None)
-    if sources is not None:
-        updates["sources"] = list(np.asarray(sources, dtype=object)[index])
-    return dataclasses.replace(windows, **updates)
 
 
 # --------------------------------------------------------------------------- official benchmark
@@ -204,14 +190,6 @@ BASELINE_METHODS: dict[str, Callable] = {"interp": interpolation_method, "zerov"
 # --------------------------------------------------------------------------- protocol
 
 
-def position_statistics(windows: "Windows") -> tuple[np.ndarray, np.ndarray]:
-    """Mean and population std (J*3,) of the windows' global positions (for L2P on a dataset
-    without an official ``Stats``, e.g. Human3.6M training windows)."""
-    _, gpos = forward_kinematics(_as_f64(windows.rotations), _as_f64(windows.positions), _parents(windows))
-    flat = gpos.reshape(-1, gpos.shape[-2] * 3)
-    return flat.mean(axis=0), flat.std(axis=0)
-
-
 class _Accumulator:
     """Per-method running sums so windows can be processed in chunks."""
 
@@ -299,7 +277,7 @@ def evaluate_protocol(
             weighted, count = metrics.foot_slide_parts(gt_pos_all[chunk, start : target + 1], ground, **slide_kw)
             gt_slide += float(weighted.sum())
             gt_slide_count += float(count.sum())
-            chunk_windows = take_windows(windows, chunk)
+            chunk_windows = windows[chunk]
             call_seed = int(seed) * 1_000_003 + length * 10_007 + chunk_index
             for name, method in methods.items():
                 pred_r, pred_p = method(chunk_windows, start, length, samples, call_seed)

@@ -157,25 +157,69 @@ def _fit_operators(num_frames: int, fps: float, half: int, freqs: tuple, ridge: 
     )
 
 
+def _smoothing_matrix(num_frames: int, sigma_frames: float) -> np.ndarray:
+    """(T, T) matrix S with smoothed = y @ S, the same smoothing as ``_smooth``."""
+    if sigma_frames <= 0:
+        return np.eye(num_frames)
+    radius = max(1, int(math.ceil(3 * sigma_frames)))
+    gap = np.arange(num_frames)[:, None] - np.arange(num_frames)[None, :]
+    kernel = np.where(np.abs(gap) <= radius, np.exp(-0.5 * (gap / sigma_frames) ** 2), 0.0)
+    return kernel / kernel.sum(axis=0, keepdims=True)  # column t: weights of the frames around t
+
+
+@functools.lru_cache(maxsize=16)
+def _dense_operators(num_frames: int, fps: float, half: int, freqs: tuple, ridge: float, sigma: float):
+    """For short clips: (T, T*F*3) matrices taking raw contacts (R, T) to X^T y and to the solution.
+
+    Smoothing is folded in; all centres are fitted with one matrix product each.
+    """
+    freqs = np.asarray(freqs, np.float64)
+    frames = np.arange(num_frames)
+    gap = frames[:, None] - frames[None, :]  # (source k, centre t): k - t
+    inside = (np.abs(gap) <= half).astype(np.float64)
+    angle = 2 * np.pi * (gap / fps)[..., None] * freqs  # (K=T, T, F)
+    basis = np.stack([np.sin(angle), np.cos(angle), np.ones_like(angle)], axis=-1) * inside[..., None, None]
+    gram = np.einsum("ktfi,ktfj->tfij", basis, basis)
+    gram[..., 0, 0] += ridge
+    gram[..., 1, 1] += ridge
+    gram += 1e-9 * np.eye(3)
+    solve = np.einsum("tfij,ktfj->ktfi", np.linalg.inv(gram), basis)
+    smooth = _smoothing_matrix(num_frames, sigma)  # (T_raw, T_smoothed)
+    columns = num_frames * len(freqs) * 3
+    to_xty = (smooth @ basis.reshape(num_frames, columns)).astype(np.float32)
+    to_coef = (smooth @ solve.reshape(num_frames, columns)).astype(np.float32)
+    return to_xty, to_coef
+
+
 def _fit_rows(y: np.ndarray, fps: float, settings: PhaseSettings, freqs: np.ndarray):
-    """Fit every frame of (R, T) smoothed signals; returns (a, b, B, F) each (R, T)."""
+    """Fit every frame of (R, T) raw contact rows; returns (a, b, B, F) each (R, T)."""
     num_rows, num_frames = y.shape
     half = max(1, int(round(settings.window_seconds * fps)))
-    basis, solve, group = _fit_operators(num_frames, float(fps), half, tuple(freqs), float(settings.ridge))
-    num_freqs = len(freqs)
     width = 2 * half + 1
-    padded = np.zeros((num_rows, num_frames + 2 * half), np.float32)
-    padded[:, half:half + num_frames] = y
-    windows = np.lib.stride_tricks.sliding_window_view(padded, width, axis=1)  # (R, T, K) view
-    xty = windows.reshape(-1, width) @ basis  # the reshape copies the overlapping windows
-    xty = xty.reshape(num_rows, num_frames, num_freqs, 3)
-    coef = np.empty_like(xty)
-    for g in range(solve.shape[0]):
-        centres = np.flatnonzero(group == g)
-        block = np.ascontiguousarray(windows[:, centres]).reshape(-1, width) @ solve[g]
-        coef[:, centres] = block.reshape(num_rows, len(centres), num_freqs, 3)
+    num_freqs = len(freqs)
+    sigma = float(settings.smoothing_seconds * fps)
+    if num_frames <= 2 * width:  # short clips (training windows): one dense product per quantity
+        to_xty, to_coef = _dense_operators(num_frames, float(fps), half, tuple(freqs),
+                                           float(settings.ridge), sigma)
+        xty = (y @ to_xty).reshape(num_rows, num_frames, num_freqs, 3)
+        coef = (y @ to_coef).reshape(num_rows, num_frames, num_freqs, 3)
+    else:  # long clips: sliding windows, one solve matrix per distinct (truncated) window
+        y = _smooth(y, sigma)
+        basis, solve, group = _fit_operators(num_frames, float(fps), half, tuple(freqs),
+                                             float(settings.ridge))
+        padded = np.zeros((num_rows, num_frames + 2 * half), np.float32)
+        padded[:, half:half + num_frames] = y
+        windows = np.lib.stride_tricks.sliding_window_view(padded, width, axis=1)  # (R, T, K) view
+        xty = (windows.reshape(-1, width) @ basis).reshape(num_rows, num_frames, num_freqs, 3)
+        coef = np.empty_like(xty)
+        for g in range(solve.shape[0]):
+            centres = np.flatnonzero(group == g)
+            if centres[-1] - centres[0] + 1 == len(centres):  # contiguous range: a slice avoids a copy
+                centres = slice(centres[0], centres[-1] + 1)
+            block = windows[:, centres].reshape(-1, width) @ solve[g]
+            coef[:, centres] = block.reshape(num_rows, -1, num_freqs, 3)
     # ridge objective at the optimum: y.y - coef.xty, so the best frequency maximises coef.xty
-    explained = np.einsum("rtfi,rtfi->rtf", coef, xty)
+    explained = coef[..., 0] * xty[..., 0] + coef[..., 1] * xty[..., 1] + coef[..., 2] * xty[..., 2]
     best = np.argmax(explained, axis=-1)  # (R, T)
     chosen = np.take_along_axis(coef, best[..., None, None], axis=2)[:, :, 0]  # (R, T, 3)
     return chosen[..., 0], chosen[..., 1], chosen[..., 2], freqs[best]
@@ -189,8 +233,8 @@ def fit_local_phase(contacts: Any, fps: float, config: Any = None, **overrides: 
     Returns ``LocalPhase`` with fields of shape (..., T, C), float32.
     """
     contacts = np.asarray(contacts, np.float32)
-    if contacts.ndim < 2:
-        raise PhaseError(f"contacts must be (..., T, C), got shape {contacts.shape}")
+    if contacts.ndim < 2 or contacts.shape[-2] == 0:
+        raise PhaseError(f"contacts must be (..., T, C) with T >= 1 frames, got shape {contacts.shape}")
     if not np.all(np.isfinite(contacts)):
         raise PhaseError("contacts contain NaN or inf; pass 0/1 contact floats")
     if not fps > 0:
@@ -201,16 +245,15 @@ def fit_local_phase(contacts: Any, fps: float, config: Any = None, **overrides: 
     rows = np.moveaxis(contacts, -1, -2).reshape(-1, num_frames)  # (R, T), R = prod(lead) * C
     outputs = [np.empty(rows.shape, np.float32) for _ in range(4)]
     half = max(1, int(round(settings.window_seconds * fps)))
-    # chunk rows so the (rows, T, F, 3) work arrays stay near 100 MB
+    # chunk rows so each (rows, T, F, 3) work array stays near 8M floats (32 MB)
     chunk = max(1, (8 << 20) // max(1, num_frames * len(freqs) * 3 + num_frames * (2 * half + 1)))
-    sigma = settings.smoothing_seconds * fps
     for start in range(0, rows.shape[0], chunk):
-        part = _smooth(rows[start:start + chunk], sigma)
-        for out, value in zip(outputs, _fit_rows(part, fps, settings, freqs)):
+        for out, value in zip(outputs, _fit_rows(rows[start:start + chunk], fps, settings, freqs)):
             out[start:start + chunk] = value
     a, b, offset, freq = (np.moveaxis(o.reshape(*lead, num_channels, num_frames), -1, -2) for o in outputs)
     amplitude = np.hypot(a, b)
     phase = np.mod(np.arctan2(b, a) / (2 * np.pi), 1.0).astype(np.float32)
+    phase[phase >= 1.0] = 0.0  # float32 rounding of values just below 1
     return LocalPhase(phase=phase, amplitude=amplitude.astype(np.float32),
                       frequency=freq.astype(np.float32), offset=offset.astype(np.float32))
 

@@ -52,6 +52,7 @@ from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
 from stitchjax import checkpoints
+from stitchjax import config as config_lib
 
 GENERATORS = ("forward", "backward")
 DISCRIMINATORS = ("disc_short", "disc_long")
@@ -313,14 +314,22 @@ def steps_per_epoch(num_windows: int, batch_size: int) -> int:
 
 
 def transition_length(step: int, steps_per_epoch: int, train_config) -> int:
-    """Progressive transition length: min_length, +1 every `epochs_per_length` epochs, up to max_length."""
+    """Progressive transition length: min_length, + length_step every `epochs_per_length` epochs, <= max_length.
+
+    An epoch is `steps_per_epoch` steps (N_windows // batch_size).
+    """
     grow = int(step) // max(1, int(round(train_config.epochs_per_length * steps_per_epoch)))
-    return int(min(train_config.max_length, train_config.min_length + grow))
+    return int(min(train_config.max_length, train_config.min_length + grow * train_config.length_step))
+
+
+def total_steps(steps_per_epoch: int, train_config) -> int:
+    """train.max_steps when > 0, else train.num_epochs epochs."""
+    return int(train_config.max_steps) if train_config.max_steps > 0 else int(train_config.num_epochs * steps_per_epoch)
 
 
 def bucket_window(length: int, train_config) -> int | None:
     """Static window (frames) for `length` when train.length_buckets is set, else None (full window)."""
-    buckets = tuple(sorted(train_config.length_buckets or ()))
+    buckets = tuple(sorted(int(b) for b in train_config.length_buckets or ()))
     if not buckets:
         return None
     for bucket in buckets:
@@ -482,7 +491,19 @@ def pretrain_phase_params(config, dataset: dict, key: jax.Array):
         raise TrainingError("features.dataset_states is missing: cannot pretrain the phase network")
     states = np.asarray(states).reshape(-1, np.shape(states)[-1])
     labels = np.asarray(dataset["phase"]).reshape(states.shape[0], -1)
-    return phase.pretrain_phase(key, states, labels, config)
+    return phase.pretrain_phase(key, states, labels, config, **_phase_pretrain_overrides(config))
+
+
+def _phase_pretrain_overrides(config) -> dict:
+    """PhaseConfig.pretrain_* fields under the names phase.pretrain_phase reads (steps, batch_size, ...).
+
+    Only settings that do not change the network's shape, and only where config.phase lacks the name.
+    """
+    names = {"steps": "pretrain_steps", "batch_size": "pretrain_batch_size",
+             "learning_rate": "pretrain_learning_rate"}
+    section = getattr(config, "phase", None)
+    return {name: getattr(section, field) for name, field in names.items()
+            if section is not None and not hasattr(section, name) and hasattr(section, field)}
 
 
 # ------------------------------------------------------------------------------------------------ loop
@@ -518,7 +539,7 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
           max_steps: int | None = None, config_name: str = "", progress: bool = True,
           dataset: dict | None = None, stats: Any = None, train_step: Callable | None = None,
           mesh: Mesh | None = None) -> dict:
-    """Train (or resume) a run in `workdir` until `max_steps` (default config.train.max_steps).
+    """Train (or resume) a run in `workdir` until step `max_steps` (default: `total_steps`).
 
     dataset/stats: pass prepared arrays to skip loading (tests, notebooks); otherwise they are loaded from
     `data_dir` (None = the bundled LAFAN1 sample). train_step: a replacement step function (tests).
@@ -528,7 +549,6 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
     is_main = jax.process_index() == 0
     workdir.mkdir(parents=True, exist_ok=True)
     tc = config.train
-    max_steps = tc.max_steps if max_steps is None else int(max_steps)
     mesh = make_mesh() if mesh is None else mesh
 
     if dataset is None:
@@ -539,6 +559,8 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
     local = local_windows_slice(num_windows)
     device_data = shard_dataset({k: v[local] for k, v in dataset.items()}, mesh)
     per_epoch = steps_per_epoch(num_windows, tc.batch_size)
+    max_steps = total_steps(per_epoch, tc) if max_steps is None else int(max_steps)
+    checkpoint_every = tc.checkpoint_every_steps or max(1, int(round(tc.checkpoint_every * per_epoch)))
 
     manager = checkpoints.open_manager(workdir, max_to_keep=tc.max_to_keep)
     log = MetricsLog(workdir / "metrics.jsonl", enabled=is_main)
@@ -554,6 +576,7 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
             if is_main:
                 print(f"phase network pretrained: final loss {float(phase_loss):.4g}")
         state = create_train_state(config, key, phase_params, mesh)
+    config_json = config_lib.to_dict(config)
     extras = {"stats": stats_to_json(stats), "config_name": config_name}
     start_step = int(state.step)
 
@@ -605,8 +628,8 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
                         bar.set_postfix(loss=f"{record['loss']:.4g}", L=length, win_s=f"{rate:.0f}")
                 if bar is not None:
                     bar.update(1)
-                if step % tc.checkpoint_every == 0 and step != max_steps:
-                    checkpoints.save(manager, step, state, config, extras)
+                if step % checkpoint_every == 0 and step != max_steps:
+                    checkpoints.save(manager, step, state, config_json, extras)
                     last_saved = step
                 if stop.requested:
                     stop_reason = f"{stop.requested} received"
@@ -626,7 +649,7 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
     if bar is not None:
         bar.close()
     if last_saved != step:
-        checkpoints.save(manager, step, state, config, extras)
+        checkpoints.save(manager, step, state, config_json, extras)
     checkpoints.close(manager)
 
     wall = time.perf_counter() - t_start

@@ -22,11 +22,13 @@ import dataclasses
 import numpy as np
 
 from stitchjax import rotations as R
-from stitchjax.skeleton import Skeleton, forward_kinematics, inverse_kinematics
+from stitchjax.skeleton import Skeleton, forward_kinematics
 
 __all__ = [
     "Windows", "window_starts", "window_indices", "foot_contacts", "contacts_from_displacement",
-    "center_and_face", "CONTACT_THRESHOLD", "FACING_FRAME",
+    "center_and_face", "center_and_face_global", "facing_rotation", "Stats", "window_statistics", "moments",
+    "combine_moments", "stats_from_moments", "CONTACT_THRESHOLD",
+    "FACING_FRAME",
 ]
 
 CONTACT_THRESHOLD = 0.02  # squared displacement per frame, file units² (cm² for LAFAN1)
@@ -112,6 +114,65 @@ class Windows:
                 f"{self.skeleton.num_joints} joints, fps={self.fps:g})")
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class Stats:
+    """Normalisation statistics of a training set (official LAFAN1 ``get_train_stats``).
+
+    Attributes:
+      mean: (J*3,) mean of each global position coordinate over all training frames, joint-major
+        (joint j, axis a at index 3*j + a), file units.
+      std: (J*3,) population standard deviation (ddof=0) of the same.
+      offsets: (J, 3) local joint offsets from the first frame of the first training window; row 0
+        (the root, whose local position is its trajectory) is zero.
+    """
+
+    mean: np.ndarray
+    std: np.ndarray
+    offsets: np.ndarray
+
+
+def moments(x):
+    """(count, mean, m2) of the rows of ``x`` (M, D): m2 is the sum of squared deviations (D,)."""
+    x = np.asarray(x, dtype=np.float64)
+    mean = x.mean(axis=0)
+    return x.shape[0], mean, np.sum((x - mean) ** 2, axis=0)
+
+
+def combine_moments(a, b):
+    """Exact combination of two (count, mean, m2) triples (Chan et al.)."""
+    (na, ma, sa), (nb, mb, sb) = a, b
+    if na == 0:
+        return b
+    n = na + nb
+    delta = mb - ma
+    return n, ma + delta * (nb / n), sa + sb + delta ** 2 * (na * nb / n)
+
+
+def window_statistics(windows: "Windows", global_positions=None) -> Stats:
+    """:class:`Stats` of ``windows`` (their FK global positions, or the given (N, T, J, 3) ones).
+
+    Computed per 1024 windows and combined exactly, so memory stays bounded.
+    """
+    if global_positions is None:
+        global_positions = windows.global_positions()
+    n, t, j, _ = np.shape(global_positions)
+    if n == 0:
+        raise ValueError("statistics of an empty set of windows")
+    total = (0, np.zeros(j * 3), np.zeros(j * 3))
+    for i in range(0, n, 1024):
+        total = combine_moments(total, moments(np.reshape(global_positions[i:i + 1024], (-1, j * 3))))
+    return stats_from_moments(total, windows.positions[0, 0])
+
+
+def stats_from_moments(total, first_local_positions) -> Stats:
+    """:class:`Stats` from combined (count, mean, m2) and the first window's first-frame local
+    positions (J, 3) (the root row is set to zero)."""
+    count, mean, m2 = total
+    offsets = np.array(first_local_positions, dtype=np.float64)
+    offsets[0] = 0.0
+    return Stats(mean=np.asarray(mean, dtype=np.float64), std=np.sqrt(m2 / count), offsets=offsets)
+
+
 def window_starts(num_frames: int, window: int, offset: int) -> np.ndarray:
     """Start frames ``0, offset, 2*offset, ...`` of the windows with ``start + window < num_frames``.
 
@@ -180,42 +241,58 @@ def facing_rotation(root_global_rotation):
     return R.quat_conjugate(yrot)
 
 
-def center_and_face(rotations, positions, parents, frame: int = FACING_FRAME, *,
-                    return_global: bool = False):
+def center_and_face(rotations, positions, parents, frame: int = FACING_FRAME):
     """Centre each window on the ground plane and turn it to face +X at ``frame``.
 
     Args:
-      rotations: (N, T, J, 4) local quaternions; positions: (N, T, J, 3) local positions (file units).
-      parents: parent index per joint (root first).
+      rotations: (..., T, J, 4) local quaternions; positions: (..., T, J, 3) local positions (file
+        units); the leading axes are windows.
+      parents: parent index per joint (root first; only the root is changed).
       frame: the frame whose root orientation defines "forward" (9 for LAFAN1: the last context frame).
-      return_global: also return the aligned global rotations and positions (saves an FK pass).
     Returns:
-      (rotations, positions) aligned local transforms with the input shapes, and with
-      ``return_global`` also (global_rotations, global_positions).
+      (rotations, positions): aligned local transforms, same shapes (new arrays).
 
     Order (official code): centring first — subtract the window-mean of the root's x and z from the
-    root's local position — then FK, rotate every global rotation and position by the facing
-    rotation about +Y through the origin, and IK back to local transforms.
+    root's position — then rotate the whole window about +Y through the origin by
+    :func:`facing_rotation` of the root's global rotation at ``frame``. The official code rotates
+    every FK global transform and recovers local ones by IK; since the rotation is applied to the
+    whole body, that changes only the root's local rotation (``turn * q_root``) and position
+    (``turn`` applied to it) — every other joint's local transform is unchanged (IK would give it
+    back up to rounding). This function computes that directly: no FK/IK pass over the windows.
     """
-    rotations = np.asarray(rotations)
+    rotations = np.array(rotations, copy=True)
     positions = np.array(positions, copy=True)
-    if rotations.ndim < 4:
-        raise ValueError(f"center_and_face needs (N, T, J, 4) windows, got shape {rotations.shape}")
+    if rotations.ndim < 3 or rotations.shape[-1] != 4 or positions.shape[:-1] != rotations.shape[:-1]:
+        raise ValueError(f"center_and_face needs (..., T, J, 4) rotations and (..., T, J, 3) "
+                         f"positions, got {rotations.shape} and {positions.shape}")
     if not 0 <= frame < rotations.shape[-3]:
         raise ValueError(f"facing frame {frame} is outside windows of {rotations.shape[-3]} frames")
-    root_xz = positions[..., :, 0, :][..., [0, 2]]  # (..., T, 2)
-    mean_xz = np.mean(root_xz, axis=-2, keepdims=True)  # (..., 1, 2)
-    positions[..., :, 0, 0] -= mean_xz[..., 0]
-    positions[..., :, 0, 2] -= mean_xz[..., 1]
-    grot, gpos = forward_kinematics(rotations, positions, parents)
-    grot, gpos = _apply_facing(grot, gpos, frame)
-    lrot, lpos = inverse_kinematics(grot, gpos, parents)
-    if return_global:
-        return lrot, lpos, grot, gpos
-    return lrot, lpos
+    if parents[0] != -1:
+        raise ValueError("joint 0 must be the root")
+    root = positions[..., :, 0, :]  # (..., T, 3), a view
+    mean_xz = np.mean(root[..., :, [0, 2]], axis=-2, keepdims=True)  # (..., 1, 2)
+    root[..., :, 0] -= mean_xz[..., 0]
+    root[..., :, 2] -= mean_xz[..., 1]
+    turn = facing_rotation(rotations[..., frame, 0, :])[..., None, :]  # (..., 1, 4)
+    rotations[..., :, 0, :] = R.quat_mul(turn, rotations[..., :, 0, :])
+    positions[..., :, 0, :] = R.quat_rotate(turn, root)
+    return rotations, positions
 
 
-def _apply_facing(global_rotations, global_positions, frame):
-    """Rotate whole windows (..., T, J, *) about +Y so the root faces +X at ``frame``."""
-    turn = facing_rotation(global_rotations[..., frame, 0, :])[..., None, None, :]  # (..., 1, 1, 4)
-    return R.quat_mul(turn, global_rotations), R.quat_rotate(turn, global_positions)
+def center_and_face_global(global_positions, root_positions, root_rotations, frame: int = FACING_FRAME):
+    """The aligned global positions of windows, from their raw ones, without FK.
+
+    ``global_positions`` (..., T, J, 3) raw FK positions, ``root_positions`` (..., T, 3) and
+    ``root_rotations`` (..., T, 4) the raw root transforms. Returns (..., T, J, 3): the positions the
+    windows have after :func:`center_and_face` (translate by minus the root's mean x/z, then turn).
+    """
+    mean_xz = np.mean(root_positions[..., :, [0, 2]], axis=-2)  # (..., 2)
+    turn = R.quat_to_matrix(facing_rotation(root_rotations[..., frame, :]))  # (..., 3, 3) about +Y
+    m = turn[..., None, None, :, :]
+    x = global_positions[..., 0] - mean_xz[..., None, None, 0]
+    y = global_positions[..., 1]
+    z = global_positions[..., 2] - mean_xz[..., None, None, 1]
+    out = np.empty(np.shape(global_positions), dtype=np.result_type(global_positions, turn))
+    for i in range(3):  # a rotation about +Y: (m[1, 0], m[1, 2]) = 0, m[1, 1] = 1 up to rounding
+        out[..., i] = m[..., i, 0] * x + m[..., i, 1] * y + m[..., i, 2] * z
+    return out

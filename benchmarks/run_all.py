@@ -1,0 +1,519 @@
+"""All benchmarks in one command: stitchjax vs an eager PyTorch twin, FLOPs and peak fraction, scaling.
+
+    python benchmarks/run_all.py                      # full run (~15 min on a 2-core CPU)
+    python benchmarks/run_all.py --quick              # fewer repetitions and scale points (< 3 min)
+    python benchmarks/run_all.py --quick --json out.json
+    python benchmarks/run_all.py --only train,infer   # a subset of: train, infer, scale_batch,
+                                                      #   scale_length, data_parallel
+
+Measured side by side in one process (jax and torch share the CPU; each timing = warm-up, then several
+repetitions, median reported; jax and torch repetitions are interleaved so load from other processes hits
+both alike):
+
+- train: one full training step (both generators' bidirectional aligned rollout, all losses, backward pass,
+  AdamW on the generators, the discriminator update) of the `lafan1` config, batch 32, transition length
+  48 (= the config's train.max_length: a 50-frame window holds 48 in-betweens + 2 keyframes), windows/s.
+  stitchjax: `train.make_train_step` (jitted, compiled ahead of time). Twin: `benchmarks/torch_twin.py`
+  (eager PyTorch, Python loop over frames, torch.optim.AdamW), same sizes, same batch.
+- FLOPs per train step: matmul FLOPs of the optimised HLO with loop trip counts (benchmarks/flops.py),
+  cross-checked against a hand count of the network's matmuls; XLA's cost_analysis() is also reported
+  (it counts a scan body once). peak_flops_fraction = matmul FLOPs per step / median step time /
+  THEORETICAL float32 peak (cores x nominal GHz x FLOP/cycle, see flops.py); the measured GEMM peak of
+  numpy/XLA on this machine is reported beside it.
+- infer: one transition of 50 generated frames, 64 samples (one vmapped rollout), ms per call.
+- scale_batch: train windows/s vs batch size; scale_length: vs transition length (window = L + 2 frames of
+  synthetic data); data_parallel: train windows/s with 1, 2, 4 forced host CPU devices (subprocesses with
+  XLA_FLAGS=--xla_force_host_platform_device_count=N), same global batch 32.
+
+Data: synthetic windows (random smooth motion on the LAFAN1 skeleton with LAFAN1-like bone lengths); a
+step's cost does not depend on the values. Writes a JSON with everything (--json) and prints a summary.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import pathlib
+import platform
+import statistics
+import subprocess
+import sys
+import time
+import traceback
+from typing import Any, Callable
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+os.environ.setdefault("JAX_PLATFORMS", "cpu")
+os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(REPO / ".cache" / "jax"))
+os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "1.0")
+for _path in (str(REPO), str(REPO / "benchmarks")):
+    if _path not in sys.path:
+        sys.path.insert(0, _path)
+
+import numpy as np  # noqa: E402
+
+import flops as flops_lib  # noqa: E402
+
+TRAIN_BATCH = 32
+TRAIN_LENGTH = 48  # lafan1 train.max_length: 50-frame windows, 48 generated frames
+INFER_SAMPLES = 64
+INFER_LENGTH = 50
+TARGETS = {"train_speedup_vs_torch": 3.0, "peak_flops_fraction": 0.30, "infer_64x50_ms": 200.0}
+
+
+# --------------------------------------------------------------------------------------------- helpers
+
+
+def log(message: str) -> None:
+    print(f"[{time.strftime('%H:%M:%S')}] {message}", flush=True)
+
+
+def timeit(fn: Callable[[], Any], warmup: int = 1, reps: int = 5) -> dict:
+    """Run fn warm-up times, then reps timed times; fn must block until its work is done.
+
+    Returns {"median_s", "min_s", "max_s", "times_s"}.
+    """
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(reps):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return summarize(times)
+
+
+def summarize(times: list[float]) -> dict:
+    return {"median_s": statistics.median(times), "min_s": min(times), "max_s": max(times),
+            "times_s": [round(t, 6) for t in times]}
+
+
+def interleaved(fns: dict[str, Callable[[], Any]], warmup: int = 1, reps: int = 5) -> dict:
+    """Time several functions side by side: warm-up each, then reps rounds running each once per round."""
+    for fn in fns.values():
+        for _ in range(warmup):
+            fn()
+    times: dict[str, list[float]] = {name: [] for name in fns}
+    for _ in range(reps):
+        for name, fn in fns.items():
+            start = time.perf_counter()
+            fn()
+            times[name].append(time.perf_counter() - start)
+    return {name: summarize(values) for name, values in times.items()}
+
+
+def machine_info() -> dict:
+    import jax
+
+    info = flops_lib.cpu_info()
+    out = {
+        "cpu_model": info["model_name"], "cpu_vendor": info["vendor"], "cpu_family": info["family"],
+        "cpu_model_number": info["model"], "cpu_mhz_nominal": info["mhz"], "cores": info["usable_cores"],
+        "hypervisor": info["hypervisor"], "simd": [f for f in ("sse4_2", "avx", "avx2", "fma", "avx512f")
+                                                   if f in info["flags"]],
+        "python": platform.python_version(), "numpy": np.__version__, "jax": jax.__version__,
+        "jax_backend": jax.default_backend(), "jax_devices": len(jax.devices()),
+        "platform": platform.platform(),
+    }
+    try:
+        import flax
+        out["flax"] = flax.__version__
+    except ImportError:
+        pass
+    try:
+        import torch
+        out["torch"] = torch.__version__
+        out["torch_threads"] = torch.get_num_threads()
+    except ImportError:
+        out["torch"] = None
+    try:
+        out["load_average_at_start"] = list(os.getloadavg())
+    except OSError:
+        pass
+    return out
+
+
+def synthetic_dataset(config, num_windows: int, num_frames: int, seed: int = 0) -> dict:
+    """Windows shaped like ``features.prepare_dataset``'s output, float32 numpy, leading (N, T).
+
+    Smooth random local rotations (small angles around identity), a walking root (about 1.5 cm/frame),
+    random 0/1 contacts, LAFAN1-like bone offsets, FK global positions, phase features in [-1, 1].
+    """
+    from stitchjax import skeleton as skel
+
+    rng = np.random.default_rng(seed)
+    parents = tuple(config.data.parents)
+    joints, contacts = len(parents), config.data.num_contacts
+    t = np.arange(num_frames)[None, :, None, None] / config.data.fps
+    freq = rng.uniform(0.5, 2.0, (num_windows, 1, joints, 3))
+    phase0 = rng.uniform(0, 2 * np.pi, (num_windows, 1, joints, 3))
+    amp = rng.uniform(0.05, 0.4, (num_windows, 1, joints, 3))
+    axis_angle = amp * np.sin(2 * np.pi * freq * t + phase0)  # (N, T, J, 3) radians
+    angle = np.linalg.norm(axis_angle, axis=-1, keepdims=True)
+    axis = axis_angle / np.maximum(angle, 1e-8)
+    rotations = np.concatenate([np.cos(angle / 2), np.sin(angle / 2) * axis], axis=-1)
+    heading = rng.uniform(0, 2 * np.pi, (num_windows, 1))
+    speed = rng.uniform(0.5, 3.0, (num_windows, 1))
+    steps = np.arange(num_frames)[None, :]
+    root = np.stack([np.cos(heading) * speed * steps, 90 + 2 * np.sin(steps / 5.0) + 0 * steps,
+                     np.sin(heading) * speed * steps], axis=-1)
+    root -= root.mean(axis=1, keepdims=True) * np.array([1, 0, 1])
+    bone = rng.normal(0, 1, (joints, 3))
+    bone = bone / np.linalg.norm(bone, axis=-1, keepdims=True) * rng.uniform(8, 40, (joints, 1))
+    bone[0] = 0
+    offsets = np.broadcast_to(bone, (num_windows, 1, joints, 3)).copy()
+    local_positions = np.broadcast_to(bone, (num_windows, num_frames, joints, 3)).copy()
+    local_positions[:, :, 0] = root
+    _, global_positions = skel.forward_kinematics(rotations, local_positions, parents)
+    contact = (rng.uniform(size=(num_windows, num_frames, contacts)) < 0.5).astype(np.float32)
+    phase = rng.uniform(-1, 1, (num_windows, num_frames, 2 * contacts))
+    return {
+        "rotations": rotations.astype(np.float32),
+        "root_positions": root.astype(np.float32),
+        "contacts": contact,
+        "global_positions": global_positions.astype(np.float32),
+        "phase": phase.astype(np.float32),
+        "offsets": offsets.astype(np.float32),
+    }
+
+
+def bench_config(batch: int = TRAIN_BATCH, length: int = TRAIN_LENGTH, extra=()):
+    """The lafan1 config with batch size and window = length + 2 frames."""
+    from stitchjax import config as config_lib
+
+    overrides = [f"train.batch_size={batch}", f"data.window={length + 2}", f"train.max_length={length}"]
+    return config_lib.apply_overrides(config_lib.load_config("lafan1"), overrides + list(extra))
+
+
+# ----------------------------------------------------------------------------------------- jax side
+
+
+class JaxTrain:
+    """A compiled stitchjax train step on synthetic data; ``run()`` does one step and blocks."""
+
+    def __init__(self, config, length: int, num_windows: int | None = None, mesh=None):
+        import jax
+        import jax.numpy as jnp
+        from stitchjax import train
+
+        self.config = config
+        self.mesh = train.make_mesh() if mesh is None else mesh
+        batch = config.train.batch_size
+        data = synthetic_dataset(config, num_windows or max(64, 2 * batch), length + 2)
+        self.host_data = data
+        self.dataset = train.shard_dataset(data, self.mesh)
+        self.state = train.create_train_state(config, jax.random.PRNGKey(0), None, self.mesh)
+        self.length = jnp.int32(length)
+        step = train.make_train_step(config, self.mesh)
+        start = time.perf_counter()
+        self.lowered = step.lower(self.state, self.dataset, self.length)
+        self.compiled = self.lowered.compile()
+        self.compile_s = time.perf_counter() - start
+        self.metrics = None
+
+    def run(self) -> None:
+        import jax
+
+        self.state, self.metrics = self.compiled(self.state, self.dataset, self.length)
+        jax.block_until_ready(self.metrics)
+
+    def flops(self) -> dict:
+        hlo = flops_lib.hlo_matmul_flops(self.compiled)
+        cost = flops_lib.xla_cost_analysis(self.compiled)
+        return {"hlo_matmul_flops": hlo["matmul_flops"], "hlo_dots": hlo["dots"],
+                "hlo_loops": hlo["loops"], "hlo_unknown_trip_counts": hlo["unknown_trip_counts"],
+                "xla_cost_analysis_flops": cost.get("flops"),
+                "xla_cost_analysis_transcendentals": cost.get("transcendentals"),
+                "xla_cost_analysis_bytes": cost.get("bytes accessed")}
+
+
+class JaxInfer:
+    """stitchjax inference: `samples` transitions of `length` frames between one pair of keyframes."""
+
+    def __init__(self, config, length: int, samples: int, params, phase_params, data: dict):
+        import jax
+        import jax.numpy as jnp
+        from stitchjax import rollout as rollout_lib
+
+        self.api = "rollout.rollout (vmapped over samples)"
+        start = {"rotations": jnp.asarray(data["rotations"][0, 0]),
+                 "root_position": jnp.asarray(data["root_positions"][0, 0]),
+                 "contacts": jnp.asarray(data["contacts"][0, 0])}
+        target = {"rotations": jnp.asarray(data["rotations"][0, length + 1]),
+                  "root_position": jnp.asarray(data["root_positions"][0, length + 1]),
+                  "contacts": jnp.asarray(data["contacts"][0, length + 1])}
+        offsets = jnp.asarray(data["offsets"][0, 0])
+
+        def generate(params, phase_params, key):
+            keys = jax.random.split(key, samples)
+            one = lambda k: rollout_lib.rollout(params, phase_params, start, target, offsets, k, config,
+                                                length, length)
+            out = jax.vmap(one)(keys)
+            return {"rotations": out["rotations"], "root_positions": out["root_positions"],
+                    "global_positions": out["global_positions"]}
+
+        self.args = (params, phase_params, jax.random.PRNGKey(1))
+        t0 = time.perf_counter()
+        self.compiled = jax.jit(generate).lower(*self.args).compile()
+        self.compile_s = time.perf_counter() - t0
+
+    def run(self) -> None:
+        import jax
+
+        jax.block_until_ready(self.compiled(*self.args))
+
+
+# --------------------------------------------------------------------------------------------- sections
+
+
+def hand_count(config, batch: int, length: int) -> dict:
+    """Matmul FLOPs of one train step counted from the layer sizes (see torch_twin.matmul_flops)."""
+    import torch_twin
+
+    return torch_twin.matmul_flops(config, batch, length)
+
+
+def section_train(args, results: dict) -> dict:
+    import torch_twin
+    import torch
+
+    config = bench_config(TRAIN_BATCH, TRAIN_LENGTH)
+    log(f"train: compiling stitchjax step (batch {TRAIN_BATCH}, length {TRAIN_LENGTH}) ...")
+    jax_train = JaxTrain(config, TRAIN_LENGTH)
+    log(f"train: compiled in {jax_train.compile_s:.1f} s")
+    twin = torch_twin.Twin(config)
+    twin.load_flax(jax_train.state.params, jax_train.state.phase_params)
+    batch = torch_twin.batch_to_torch(jax_train.host_data, np.arange(TRAIN_BATCH))
+    rng = np.random.default_rng(0)
+
+    def torch_step():
+        twin.train_step(batch, TRAIN_LENGTH, rng=rng)
+
+    reps = 3 if args.quick else 7
+    timings = interleaved({"jax": jax_train.run, "torch": torch_step}, warmup=1, reps=reps)
+    jax_s, torch_s = timings["jax"]["median_s"], timings["torch"]["median_s"]
+    flop = jax_train.flops()
+    hand = hand_count(config, TRAIN_BATCH, TRAIN_LENGTH)
+    peak = results["machine"]["peak"]
+    fraction = flop["hlo_matmul_flops"] / jax_s / peak["theoretical"]["flops"]
+    out = {
+        "batch": TRAIN_BATCH, "transition_length": TRAIN_LENGTH, "window": TRAIN_LENGTH + 2,
+        "jax_compile_s": jax_train.compile_s, "jax": timings["jax"], "torch": timings["torch"],
+        "train_windows_per_s": TRAIN_BATCH / jax_s, "torch_train_windows_per_s": TRAIN_BATCH / torch_s,
+        "train_speedup_vs_torch": torch_s / jax_s,
+        "flops": {**flop, "hand_count_matmul_flops": hand["total"], "hand_count_detail": hand,
+                  "hlo_over_hand": flop["hlo_matmul_flops"] / hand["total"]},
+        "achieved_matmul_flops_per_s": flop["hlo_matmul_flops"] / jax_s,
+        "peak_flops_fraction": fraction,
+        "peak_flops_fraction_vs_measured_gemm": flop["hlo_matmul_flops"] / jax_s / peak["measured"]["best"],
+        "torch_achieved_matmul_flops_per_s": hand["total"] / torch_s,
+        "torch_threads": torch.get_num_threads(),
+        "jax_loss": float(jax_train.metrics["loss"]),
+    }
+    results["_jax_train"] = jax_train  # reused by the inference section (params)
+    return out
+
+
+def section_infer(args, results: dict) -> dict:
+    import jax
+    import torch_twin
+    from stitchjax import train
+
+    config = bench_config(TRAIN_BATCH, INFER_LENGTH)
+    state = None
+    if "_jax_train" in results:
+        state = results["_jax_train"].state
+    if state is None:
+        state = train.create_train_state(config, jax.random.PRNGKey(0), None)
+    data = synthetic_dataset(config, 2, INFER_LENGTH + 2, seed=1)
+    log(f"infer: compiling stitchjax inference ({INFER_SAMPLES} samples x {INFER_LENGTH} frames) ...")
+    jax_infer = JaxInfer(config, INFER_LENGTH, INFER_SAMPLES, state.params, state.phase_params, data)
+    twin = torch_twin.Twin(config)
+    twin.load_flax(state.params, state.phase_params)
+    torch_fn = twin.make_inference(data, INFER_LENGTH, INFER_SAMPLES)
+    reps = 5 if args.quick else 15
+    timings = interleaved({"jax": jax_infer.run, "torch": torch_fn}, warmup=2, reps=reps)
+    return {"samples": INFER_SAMPLES, "transition_length": INFER_LENGTH, "api": jax_infer.api,
+            "jax_compile_s": jax_infer.compile_s, "jax": timings["jax"], "torch": timings["torch"],
+            "infer_64x50_ms": 1e3 * timings["jax"]["median_s"],
+            "torch_infer_64x50_ms": 1e3 * timings["torch"]["median_s"],
+            "infer_speedup_vs_torch": timings["torch"]["median_s"] / timings["jax"]["median_s"]}
+
+
+def section_scale_batch(args, results: dict) -> list:
+    import torch_twin
+
+    sizes = (8, 64, 256) if args.quick else (8, 16, 32, 64, 128, 256, 512)
+    rows = []
+    peak = results["machine"]["peak"]["theoretical"]["flops"]
+    for batch in sizes:
+        config = bench_config(batch, TRAIN_LENGTH)
+        log(f"scale_batch: batch {batch} ...")
+        jt = JaxTrain(config, TRAIN_LENGTH)
+        fns = {"jax": jt.run}
+        with_torch = batch <= (64 if args.quick else 128)
+        if with_torch:
+            twin = torch_twin.Twin(config)
+            twin.load_flax(jt.state.params, jt.state.phase_params)
+            tb = torch_twin.batch_to_torch(jt.host_data, np.arange(batch))
+            fns["torch"] = lambda: twin.train_step(tb, TRAIN_LENGTH)
+        t = interleaved(fns, warmup=1, reps=2 if args.quick else 3)
+        flop = flops_lib.hlo_matmul_flops(jt.compiled)["matmul_flops"]
+        row = {"batch": batch, "compile_s": jt.compile_s, "jax_s": t["jax"]["median_s"],
+               "train_windows_per_s": batch / t["jax"]["median_s"],
+               "peak_flops_fraction": flop / t["jax"]["median_s"] / peak}
+        if with_torch:
+            row["torch_s"] = t["torch"]["median_s"]
+            row["torch_train_windows_per_s"] = batch / t["torch"]["median_s"]
+            row["speedup_vs_torch"] = t["torch"]["median_s"] / t["jax"]["median_s"]
+        rows.append(row)
+        log(f"  {row}")
+    return rows
+
+
+def section_scale_length(args, results: dict) -> list:
+    import torch_twin
+
+    lengths = (10, 30, 100) if args.quick else (10, 20, 30, 48, 70, 100)
+    rows = []
+    for length in lengths:
+        config = bench_config(TRAIN_BATCH, length)
+        log(f"scale_length: transition length {length} (window {length + 2}) ...")
+        jt = JaxTrain(config, length)
+        twin = torch_twin.Twin(config)
+        twin.load_flax(jt.state.params, jt.state.phase_params)
+        tb = torch_twin.batch_to_torch(jt.host_data, np.arange(TRAIN_BATCH))
+        t = interleaved({"jax": jt.run, "torch": lambda: twin.train_step(tb, length)},
+                        warmup=1, reps=2 if args.quick else 3)
+        row = {"transition_length": length, "window": length + 2, "compile_s": jt.compile_s,
+               "jax_s": t["jax"]["median_s"], "train_windows_per_s": TRAIN_BATCH / t["jax"]["median_s"],
+               "torch_s": t["torch"]["median_s"],
+               "torch_train_windows_per_s": TRAIN_BATCH / t["torch"]["median_s"],
+               "speedup_vs_torch": t["torch"]["median_s"] / t["jax"]["median_s"]}
+        rows.append(row)
+        log(f"  {row}")
+    return rows
+
+
+def data_parallel_worker(devices: int, reps: int) -> None:
+    """Subprocess body: train windows/s at batch 32 on `devices` forced host devices; prints JSON."""
+    import jax
+
+    assert len(jax.devices()) == devices, (jax.devices(), devices)
+    config = bench_config(TRAIN_BATCH, TRAIN_LENGTH)
+    jt = JaxTrain(config, TRAIN_LENGTH)
+    t = timeit(jt.run, warmup=1, reps=reps)
+    print("RESULT " + json.dumps({"devices": devices, "compile_s": jt.compile_s, "step_s": t["median_s"],
+                                  "train_windows_per_s": TRAIN_BATCH / t["median_s"], "times_s": t["times_s"]}))
+
+
+def section_data_parallel(args, results: dict) -> list:
+    rows = []
+    for devices in (1, 2, 4):
+        log(f"data_parallel: {devices} forced host device(s) ...")
+        env = dict(os.environ)
+        env["XLA_FLAGS"] = (env.get("XLA_FLAGS", "") + f" --xla_force_host_platform_device_count={devices}").strip()
+        env["JAX_PLATFORMS"] = "cpu"
+        cmd = [sys.executable, str(pathlib.Path(__file__).resolve()), "--worker-devices", str(devices),
+               "--worker-reps", str(2 if args.quick else 4)]
+        proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=1200)
+        line = next((l for l in proc.stdout.splitlines() if l.startswith("RESULT ")), None)
+        if proc.returncode != 0 or line is None:
+            rows.append({"devices": devices, "error": (proc.stderr or proc.stdout)[-2000:]})
+        else:
+            rows.append(json.loads(line[len("RESULT "):]))
+        log(f"  {rows[-1] if 'error' not in rows[-1] else 'error'}")
+    base = next((r for r in rows if r.get("devices") == 1 and "step_s" in r), None)
+    for row in rows:
+        if base and "step_s" in row:
+            row["speedup_vs_1_device"] = base["step_s"] / row["step_s"]
+    return rows
+
+
+SECTIONS = {"train": section_train, "infer": section_infer, "scale_batch": section_scale_batch,
+            "scale_length": section_scale_length, "data_parallel": section_data_parallel}
+
+
+def summary(results: dict) -> dict:
+    """The headline figures (flat) from the sections that ran."""
+    train_res = results.get("train", {})
+    infer_res = results.get("infer", {})
+    keys = {
+        "train_windows_per_s": train_res.get("train_windows_per_s"),
+        "torch_train_windows_per_s": train_res.get("torch_train_windows_per_s"),
+        "train_speedup_vs_torch": train_res.get("train_speedup_vs_torch"),
+        "flops_per_train_step": train_res.get("flops", {}).get("hlo_matmul_flops"),
+        "peak_flops_fraction": train_res.get("peak_flops_fraction"),
+        "infer_64x50_ms": infer_res.get("infer_64x50_ms"),
+        "torch_infer_64x50_ms": infer_res.get("torch_infer_64x50_ms"),
+    }
+    met = {}
+    if keys["train_speedup_vs_torch"] is not None:
+        met["train_speedup_vs_torch >= 3"] = keys["train_speedup_vs_torch"] >= TARGETS["train_speedup_vs_torch"]
+    if keys["peak_flops_fraction"] is not None:
+        met["peak_flops_fraction >= 0.30"] = keys["peak_flops_fraction"] >= TARGETS["peak_flops_fraction"]
+    if keys["infer_64x50_ms"] is not None:
+        met["infer_64x50_ms < 200"] = keys["infer_64x50_ms"] < TARGETS["infer_64x50_ms"]
+    keys["targets_met"] = met
+    return keys
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="fewer repetitions and scale points (< 3 min)")
+    parser.add_argument("--json", default=None, help="write all results to this JSON file")
+    parser.add_argument("--only", default=None, help="comma-separated sections: " + ",".join(SECTIONS))
+    parser.add_argument("--worker-devices", type=int, default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--worker-reps", type=int, default=3, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.worker_devices is not None:
+        data_parallel_worker(args.worker_devices, args.worker_reps)
+        return 0
+
+    wall = time.perf_counter()
+    sections = list(SECTIONS) if args.only is None else [s.strip() for s in args.only.split(",") if s.strip()]
+    unknown = [s for s in sections if s not in SECTIONS]
+    if unknown:
+        parser.error(f"unknown section(s) {unknown}; choose from {', '.join(SECTIONS)}")
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        parser.error("PyTorch is needed for the twin: pip install -e '.[bench]' (torch is an optional extra)")
+
+    results: dict[str, Any] = {"quick": args.quick, "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+    log("machine info and peak FLOP/s ...")
+    results["machine"] = machine_info()
+    results["machine"]["peak"] = {
+        "theoretical": flops_lib.theoretical_peak_flops(),
+        "measured": flops_lib.measured_matmul_peak(sizes=(1024, 2048) if not args.quick else (2048,),
+                                                    reps=5 if not args.quick else 3),
+    }
+    log(f"  theoretical {results['machine']['peak']['theoretical']['flops'] / 1e9:.1f} GFLOP/s, measured GEMM "
+        f"{results['machine']['peak']['measured']['best'] / 1e9:.1f} GFLOP/s")
+    for name in sections:
+        start = time.perf_counter()
+        try:
+            results[name] = SECTIONS[name](args, results)
+        except Exception as err:  # keep the other sections' figures
+            traceback.print_exc()
+            results[name] = {"error": f"{type(err).__name__}: {err}"}
+        log(f"{name}: {time.perf_counter() - start:.1f} s")
+    results.pop("_jax_train", None)
+    results["summary"] = summary(results)
+    results["wall_s"] = time.perf_counter() - wall
+    try:
+        results["machine"]["load_average_at_end"] = list(os.getloadavg())
+    except OSError:
+        pass
+    text = json.dumps(results, indent=2, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
+    if args.json:
+        pathlib.Path(args.json).write_text(text + "\n")
+        log(f"wrote {args.json}")
+    print(json.dumps(results["summary"], indent=2))
+    log(f"total {results['wall_s']:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,144 @@
+"""Network features: the per-frame character state, offsets, and the training dataset arrays.
+
+Character state of one frame (size S = J*4 + 3 + C; LAFAN1: 22*4 + 3 + 4 = 95)::
+
+    [ local quaternions (J*4, w x y z per joint) | root velocity (3) | foot contacts (C) ]
+
+Root velocity of frame t is ``(p_t - p_{t-1}) / data.velocity_scale`` with p the root position in file
+units (LAFAN1: cm, so scaled units are 10 cm/frame = 3 m/s: ~0.5 walking, ~2 sprinting). The velocity of
+the first frame of a sequence (and of both keyframes in the rollout, which only sees two poses) is 0.
+Offset features (the offset encoder's input, size J*4 + 3): target minus current local quaternions and
+target minus current global root position divided by ``data.position_scale`` (cm -> m).
+
+Everything here works on numpy (data pipeline) and jax.numpy (model) arrays alike.
+"""
+from __future__ import annotations
+
+import numpy as np
+import jax
+import jax.numpy as jnp
+
+__all__ = [
+    "state_dim", "state_vector", "split_state", "root_velocities", "offset_features",
+    "local_positions", "integrate_root", "prepare_dataset", "dataset_states", "DatasetError",
+]
+
+
+class DatasetError(ValueError):
+    """Windows / stats / config do not fit together; the message says what to change."""
+
+
+def _xp(*arrays):
+    return jnp if any(isinstance(a, jax.Array) for a in arrays) else np
+
+
+def state_dim(config_or_num_joints, num_contacts: int = 4) -> int:
+    """S = J*4 + 3 + C from a Config (uses config.data) or a joint count."""
+    data = getattr(config_or_num_joints, "data", None)
+    if data is not None:
+        return data.num_joints * 4 + 3 + data.num_contacts
+    return int(config_or_num_joints) * 4 + 3 + num_contacts
+
+
+def state_vector(rotations, root_velocity, contacts):
+    """(..., J, 4) local quats, (..., 3) scaled root velocity, (..., C) contacts -> (..., J*4 + 3 + C)."""
+    xp = _xp(rotations, root_velocity, contacts)
+    flat = rotations.reshape(rotations.shape[:-2] + (rotations.shape[-2] * 4,))
+    return xp.concatenate([flat, root_velocity, contacts], axis=-1)
+
+
+def split_state(state, num_joints: int):
+    """Inverse of :func:`state_vector`: (..., S) -> (rotations (..., J, 4), velocity (..., 3), contacts (..., C))."""
+    n = num_joints * 4
+    rotations = state[..., :n].reshape(state.shape[:-1] + (num_joints, 4))
+    return rotations, state[..., n:n + 3], state[..., n + 3:]
+
+
+def root_velocities(root_positions, velocity_scale: float):
+    """Scaled root velocity of every frame: (..., T, 3) positions -> (..., T, 3); frame 0 gets 0."""
+    xp = _xp(root_positions)
+    diff = root_positions[..., 1:, :] - root_positions[..., :-1, :]
+    first = xp.zeros_like(root_positions[..., :1, :])
+    return xp.concatenate([first, diff], axis=-2) / velocity_scale
+
+
+def offset_features(rotations, root_position, target_rotations, target_root_position, position_scale: float):
+    """Offset encoder input (..., J*4 + 3): target - current local quats, target - current root / scale."""
+    xp = _xp(rotations, root_position, target_rotations, target_root_position)
+    dq = target_rotations - rotations
+    dq = dq.reshape(dq.shape[:-2] + (dq.shape[-2] * 4,))
+    return xp.concatenate([dq, (target_root_position - root_position) / position_scale], axis=-1)
+
+
+def local_positions(offsets, root_positions):
+    """FK local positions: bone offsets (..., J, 3) with the root row replaced by root_positions (..., 3).
+
+    Broadcasts: offsets (J, 3) with root_positions (T, 3) gives (T, J, 3).
+    """
+    xp = _xp(offsets, root_positions)
+    shape = np.broadcast_shapes(offsets.shape[:-2], root_positions.shape[:-1])
+    offsets = xp.broadcast_to(offsets, shape + offsets.shape[-2:])
+    root = xp.broadcast_to(root_positions[..., None, :], shape + (1, 3))
+    return xp.concatenate([root.astype(offsets.dtype), offsets[..., 1:, :]], axis=-2)
+
+
+def integrate_root(start_position, velocities, velocity_scale: float):
+    """Root positions (..., T, 3) from a start position (..., 3) and scaled velocities (..., T, 3) of
+    frames 1..T (p_t = p_{t-1} + v_t * scale)."""
+    xp = _xp(start_position, velocities)
+    return start_position[..., None, :] + xp.cumsum(velocities, axis=-2) * velocity_scale
+
+
+def prepare_dataset(windows, stats, config, phase_labels=None) -> dict:
+    """Training arrays from a :class:`stitchjax.windows.Windows` batch (float32 numpy, leading (N, T)).
+
+    Returns:
+      "rotations" (N, T, J, 4) local quats; "root_positions" (N, T, 3) file units;
+      "contacts" (N, T, C); "global_positions" (N, T, J, 3) FK positions, file units;
+      "phase" (N, T, 2C) phase labels (``phase.phase_labels`` per window unless given);
+      "offsets" (N, 1, J, 3) bone offsets of each window (time axis of 1 so ``x[idx, :window]`` slicing
+      of every array keeps working).
+    stats: the training statistics (unused beyond validation; positions are scaled by
+    ``config.data.position_scale``, kept fixed so checkpoints do not depend on the data subset).
+    """
+    from stitchjax import skeleton as skel
+
+    parents = tuple(config.data.parents)
+    if tuple(windows.skeleton.parents) != parents:
+        raise DatasetError(
+            f"windows have a {windows.skeleton.num_joints}-joint skeleton whose parents differ from "
+            f"config.data.parents ({len(parents)} joints); set data.parents to {tuple(windows.skeleton.parents)}")
+    contacts = np.asarray(windows.contacts, np.float32)
+    if contacts.shape[-1] != config.data.num_contacts:
+        raise DatasetError(f"windows have {contacts.shape[-1]} contact channels, config.data.num_contacts="
+                           f"{config.data.num_contacts}")
+    rotations = np.asarray(windows.rotations, np.float64)
+    positions = np.asarray(windows.positions, np.float64)
+    _, global_positions = skel.forward_kinematics(rotations, positions, parents)
+    if phase_labels is None:
+        from stitchjax import phase
+
+        phase_labels = phase.phase_labels(contacts, windows.fps, config)
+    phase_labels = np.asarray(phase_labels, np.float32)
+    phase_labels = phase_labels.reshape(phase_labels.shape[:2] + (-1,))
+    offsets = positions[:, :1].copy()
+    offsets[..., 0, :] = 0.0
+    return {
+        "rotations": rotations.astype(np.float32),
+        "root_positions": positions[:, :, 0].astype(np.float32),
+        "contacts": contacts,
+        "global_positions": global_positions.astype(np.float32),
+        "phase": phase_labels,
+        "offsets": offsets.astype(np.float32),
+    }
+
+
+def dataset_states(dataset: dict, config):
+    """Character states of every frame of a prepared dataset, (N, T, S) (phase pretraining input).
+
+    Frame 0 of each window gets the velocity of frame 1 (the window has no previous frame).
+    """
+    xp = _xp(dataset["root_positions"])
+    velocity = root_velocities(dataset["root_positions"], config.data.velocity_scale)
+    velocity = xp.concatenate([velocity[:, 1:2], velocity[:, 1:]], axis=1)
+    return state_vector(dataset["rotations"], velocity, dataset["contacts"])

@@ -1,0 +1,481 @@
+"""In-betweening with a trained model: two keyframes in, N diverse transitions out.
+
+    model = load_model("runs/quickstart")                       # a training run (or a checkpoint folder)
+    motion = bvh.load("obstacles1_subject5.bvh")
+    samples = inbetween(model, motion[100], motion[140], length=39, num_samples=8, seed=0)
+    # -> 8 Motions of 41 frames: motion[100], 39 generated frames, motion[140] (same skeleton and fps)
+    clips = inbetween_clip(model, motion, 100, 140, num_samples=8)   # whole takes, frames 101..139 replaced
+
+Pipeline of one request (all samples of all requests in ONE jitted, vmapped rollout):
+
+1. Keyframes into the model's frame, as the training windows were made (``windows.center_and_face``):
+   the root's x and z are centred on the midpoint of the two keyframes' roots (training centres a
+   window on its mean root x/z; the midpoint is the mean of a straight path) and the whole pair is
+   turned about +Y so the *start* keyframe faces +X (training faces +X at frame 9, the last context
+   frame of the benchmark, which is the start keyframe in the evaluation protocol). Only the root's
+   local transform changes.
+2. ``rollout.rollout`` vmapped over windows x samples, compiled once per (length, candidates) and
+   cached; transition length L is static here (``max_length = L``), so nothing past L is computed.
+3. Latent-pair search (``search=M``): M x N latent pairs per window are rolled out together and the N
+   with the lowest stitching loss (mean L1 distance between the forward and backward generators' FK
+   joint positions over the overlapping frames) are kept, in increasing order of that loss.
+4. Back to the input's frame (inverse turn, then the centre added back), sign-continuous quaternions,
+   and the two keyframes overwritten with the input's own local transforms, so the first and last
+   frames equal the keyframes exactly (bit for bit in local transforms, hence in global positions).
+
+Units: positions in the input's units (LAFAN1: cm); ``stitch_loss`` in the same units.
+Foot contacts of the keyframes (part of the model's character state) are measured like the training
+labels (squared displacement to a neighbouring frame < ``windows.CONTACT_THRESHOLD``) when the request
+carries a neighbouring frame, else guessed from the feet's heights (see :func:`keyframe_contacts`).
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+import os
+import pathlib
+import warnings
+from typing import Any, Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from stitchjax import rotations as R
+from stitchjax.bvh import Motion
+from stitchjax.skeleton import LAFAN1_FEET, LAFAN1_JOINTS, forward_kinematics
+from stitchjax.windows import CONTACT_THRESHOLD, center_and_face, facing_rotation, foot_contacts
+
+__all__ = [
+    "InbetweenError", "Model", "load_model", "random_model", "inbetween", "inbetween_clip",
+    "sample_transitions", "transitions_in_frame", "keyframe_contacts", "model_method",
+    "evaluation_method", "stitch_losses",
+]
+
+CONTACT_HEIGHT = 4.0  # file units (cm): single-frame contact guess, see keyframe_contacts
+
+
+class InbetweenError(ValueError):
+    """A request the model cannot serve (bad length, skeleton mismatch, frames out of range, ...)."""
+
+
+# ---------------------------------------------------------------------------------------------- model
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Model:
+    """A trained (or freshly initialised) in-betweening model, ready for inference.
+
+    Attributes:
+      config: the experiment ``Config`` it was trained with (static, hashable).
+      params: {"forward", "backward"} generator params (discriminators are not needed).
+      phase_params: the frozen phase network's params (or None without phase modulation).
+      joint_names: joint names of the training skeleton (checked against requests), or None.
+      feet: joint indices of the contact channels (LAFAN1: LeftFoot, LeftToe, RightFoot, RightToe).
+      stats: training statistics as numpy arrays ("mean", "std" (J*3,), "offsets" (J, 3)), may be {}.
+      source: where it came from ("<workdir> step <n>" or "random init (seed s)").
+    """
+
+    config: Any
+    params: dict
+    phase_params: Any
+    joint_names: tuple | None
+    feet: tuple
+    stats: dict
+    source: str
+
+    @property
+    def parents(self) -> tuple:
+        return tuple(int(p) for p in self.config.data.parents)
+
+    @property
+    def num_joints(self) -> int:
+        return len(self.parents)
+
+    @property
+    def trained_max_length(self) -> int:
+        """Longest transition seen in training (longer ones work but are extrapolation)."""
+        return int(self.config.train.max_length)
+
+    def __repr__(self):
+        return f"Model({self.config.name!r}, {self.num_joints} joints, {self.source})"
+
+
+def _default_joint_names(config) -> tuple | None:
+    if getattr(config.data, "dataset", "lafan1") == "lafan1" and len(config.data.parents) == len(LAFAN1_JOINTS):
+        return tuple(LAFAN1_JOINTS)
+    try:
+        from stitchjax import h36m
+
+        names = getattr(h36m, "JOINT_NAMES", None) or getattr(h36m, "JOINTS", None)
+        if names is not None and len(names) == len(config.data.parents):
+            return tuple(names)
+    except ImportError:
+        pass
+    return None
+
+
+def _default_feet(config) -> tuple:
+    if getattr(config.data, "dataset", "lafan1") == "h36m":
+        try:
+            from stitchjax import h36m
+
+            return tuple(int(j) for j in h36m.FEET)
+        except (ImportError, AttributeError):
+            pass
+    return tuple(LAFAN1_FEET)
+
+
+def _resolve_checkpoint(path) -> tuple[pathlib.Path, int | None]:
+    """(training workdir, step or None) from a workdir, its checkpoints/ folder or one step folder."""
+    path = pathlib.Path(os.fspath(path)).expanduser().resolve()
+    if not path.exists():
+        raise FileNotFoundError(f"checkpoint {path} does not exist: pass a training run folder "
+                                f"(bin/train --workdir DIR) or one of its checkpoints/<step> folders")
+    if (path / "checkpoints").is_dir():
+        return path, None
+    if path.name == "checkpoints":
+        return path.parent, None
+    if path.name.isdigit() and path.parent.name == "checkpoints":
+        return path.parent.parent, int(path.name)
+    raise FileNotFoundError(f"{path} holds no checkpoints (expected {path / 'checkpoints'}/<step>/): pass "
+                            f"the folder given to bin/train --workdir")
+
+
+def load_model(checkpoint, step: int | None = None) -> Model:
+    """Load a model from a training run folder (its latest checkpoint, or ``step``).
+
+    ``checkpoint`` may be the run folder (``bin/train --workdir``), its ``checkpoints/`` folder or one
+    ``checkpoints/<step>`` folder. The config saved beside the state says how to build the networks.
+    Raises FileNotFoundError (``checkpoints.CheckpointError``) when there is no checkpoint.
+    """
+    from stitchjax import checkpoints
+    from stitchjax import config as config_lib
+    from stitchjax import train
+
+    workdir, folder_step = _resolve_checkpoint(checkpoint)
+    step = folder_step if step is None else int(step)
+    config = config_lib.from_dict(checkpoints.read_config_json(workdir, step))
+    manager = checkpoints.open_manager(workdir, read_only=True)
+    try:
+        if step is None:
+            step = manager.latest_step()
+        state, _, extras = checkpoints.restore(manager, train.abstract_train_state(config), step)
+    finally:
+        manager.close()
+    stats = {k: np.asarray(v, np.float64) for k, v in (extras.get("stats") or {}).items()}
+    names = extras.get("joint_names")
+    names = tuple(names) if names else _default_joint_names(config)
+    params = {"forward": state.params["forward"], "backward": state.params["backward"]}
+    phase_params = state.phase_params if config.model.phase_modulation else None
+    return Model(config, params, phase_params, names, _default_feet(config), stats,
+                 f"{workdir} step {int(step)}")
+
+
+def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None) -> Model:
+    """A freshly initialised model (untrained): for timing, tests and shape checks."""
+    from stitchjax import networks, phase, features
+
+    key = jax.random.PRNGKey(seed)
+    params = jax.jit(lambda k: networks.init_params(config, k))(key)
+    phase_params = None
+    if config.model.phase_modulation:
+        phase_params = phase.init_phase_params(jax.random.fold_in(key, 1), features.state_dim(config), config)
+    names = tuple(joint_names) if joint_names is not None else _default_joint_names(config)
+    return Model(config, {"forward": params["forward"], "backward": params["backward"]}, phase_params,
+                 names, _default_feet(config), {}, f"random init (seed {seed})")
+
+
+# ------------------------------------------------------------------------------------ model-frame core
+
+
+def stitch_losses(result: dict) -> jax.Array:
+    """Stitching loss per rollout: mean over the overlapping frames of the mean absolute difference
+    (over joints and x, y, z) between the forward and backward FK positions; (...,), file units.
+    0 when the transition is too short to overlap (L < 2) or the model is forward-only."""
+    overlap = result["overlap"]
+    diff = jnp.abs(overlap["forward_positions"] - overlap["backward_positions"]).mean(axis=(-1, -2))
+    mask = overlap["mask"].astype(diff.dtype)
+    return (diff * mask).sum(-1) / jnp.maximum(mask.sum(-1), 1.0)
+
+
+@functools.lru_cache(maxsize=32)
+def _compiled_sampler(config, length: int, num_candidates: int, num_keep: int):
+    """jit of (params, phase_params, start, target, offsets, key) -> model-frame transitions.
+
+    start / target: dicts of (B, ...) keyframes as ``rollout.rollout`` wants them; offsets (B, J, 3).
+    Every window gets ``num_candidates`` rollouts; the ``num_keep`` with the lowest stitching loss are
+    returned (all of them, in sampling order, when num_keep == num_candidates).
+    """
+    from stitchjax import rollout as rollout_lib
+
+    def one(params, phase_params, start, target, offsets, key):
+        out = rollout_lib.rollout(params, phase_params, start, target, offsets, key, config, length, length)
+        return {"rotations": out["rotations"], "root_positions": out["root_positions"],
+                "contacts": out["contacts"], "global_positions": out["global_positions"],
+                "stitch_loss": stitch_losses(out)}
+
+    def window(params, phase_params, start, target, offsets, key):
+        keys = jax.random.split(key, num_candidates)
+        outs = jax.vmap(one, in_axes=(None, None, None, None, None, 0))(
+            params, phase_params, start, target, offsets, keys)
+        if num_keep < num_candidates:
+            _, best = jax.lax.top_k(-outs["stitch_loss"], num_keep)  # lowest losses, increasing
+            outs = jax.tree.map(lambda x: x[best], outs)
+        return outs
+
+    def batch(params, phase_params, start, target, offsets, key):
+        count = offsets.shape[0]
+        keys = jax.random.split(key, count)
+        return jax.vmap(window, in_axes=(None, None, 0, 0, 0, 0))(params, phase_params, start, target, offsets,
+                                                                   keys)
+
+    return jax.jit(batch)
+
+
+def _as_key(seed):
+    if isinstance(seed, (int, np.integer)):
+        return jax.random.PRNGKey(int(seed))
+    return seed
+
+
+def _check_request(model: Model, length: int, num_samples: int, search: int, warn: bool = False):
+    if int(length) != length or length < 1:
+        raise InbetweenError(f"transition length must be a whole number of frames >= 1, got {length}")
+    if int(num_samples) != num_samples or num_samples < 1:
+        raise InbetweenError(f"num_samples must be >= 1, got {num_samples}")
+    if int(search) != search or search < 0:
+        raise InbetweenError(f"search must be 0 (no search) or the number of latent pairs tried per "
+                             f"sample (>= 1), got {search}")
+    if warn and length > model.trained_max_length:
+        warnings.warn(f"transition length {length} is longer than the {model.trained_max_length} frames "
+                      f"the model was trained on: the result is extrapolation", stacklevel=3)
+
+
+def sample_transitions(model: Model, start: dict, target: dict, offsets, length: int, num_samples: int,
+                       seed=0, search: int = 0) -> dict:
+    """Transitions in the model's frame for B keyframe pairs (no alignment, no keyframe overwrite).
+
+    start, target: {"rotations" (B, J, 4), "root_position" (B, 3), "contacts" (B, C)}, already centred
+      and facing-aligned; offsets: (B, J, 3) bone offsets (root row ignored).
+    Returns numpy float32 {"rotations" (B, S, L+2, J, 4), "root_positions" (B, S, L+2, 3), "contacts"
+      (B, S, L+2, C), "global_positions" (B, S, L+2, J, 3), "stitch_loss" (B, S)}, S = num_samples.
+    """
+    _check_request(model, length, num_samples, search, warn=True)
+    candidates = num_samples * max(int(search), 1)
+    fn = _compiled_sampler(model.config, int(length), int(candidates), int(num_samples))
+    as32 = functools.partial(jnp.asarray, dtype=jnp.float32)
+    out = fn(model.params, model.phase_params, jax.tree.map(as32, start), jax.tree.map(as32, target),
+             as32(offsets), _as_key(seed))
+    return jax.tree.map(np.asarray, out)
+
+
+# ----------------------------------------------------------------------------- alignment and contacts
+
+
+def _alignment(start_rotations, start_positions, target_rotations, target_positions, parents):
+    """Keyframes (B, J, *) in the model's frame plus the (turn (B, 4), centre (B, 3)) that undo it."""
+    rot = np.stack([start_rotations, target_rotations], axis=1)  # (B, 2, J, 4): a 2-frame window
+    pos = np.stack([start_positions, target_positions], axis=1)
+    aligned_rot, aligned_pos = center_and_face(rot, pos, parents, frame=0)
+    turn = facing_rotation(np.asarray(start_rotations)[:, 0])  # the turn center_and_face applied
+    centre = 0.5 * (pos[:, 0, 0] + pos[:, 1, 0])
+    centre[:, 1] = 0.0
+    return aligned_rot, aligned_pos, turn, centre
+
+
+def keyframe_contacts(global_positions, feet, neighbour=None, threshold: float = CONTACT_THRESHOLD,
+                      up_axis: int = 1):
+    """Foot contacts (C,) of one keyframe, float 0./1.
+
+    global_positions: (J, 3) the keyframe's FK positions; neighbour: (J, 3) an adjacent frame's, when
+    known: then as the training labels (``windows.foot_contacts``): squared displacement < threshold.
+    Without a neighbour: a foot joint counts as in contact when it is within CONTACT_HEIGHT (4 cm)
+    of the lowest foot joint of the frame (a guess: it cannot tell a standing foot from a sliding one).
+    """
+    p = np.asarray(global_positions, np.float64)
+    if neighbour is not None:
+        pair = np.stack([p, np.asarray(neighbour, np.float64)])
+        return foot_contacts(pair, feet, threshold)[0]
+    heights = p[list(feet), up_axis]
+    return (heights - heights.min() < CONTACT_HEIGHT).astype(np.float64)
+
+
+def _check_skeleton(model: Model, skeleton):
+    if tuple(skeleton.parents) != model.parents:
+        raise InbetweenError(
+            f"skeleton mismatch: the motion has {skeleton.num_joints} joints with parents "
+            f"{tuple(skeleton.parents)}, the model ({model.source}) was trained on {model.num_joints} joints "
+            f"with parents {model.parents}; retarget the motion to the training skeleton")
+    if model.joint_names is not None and tuple(skeleton.names) != tuple(model.joint_names):
+        diff = [f"{i}: {a!r} vs {b!r}" for i, (a, b) in enumerate(zip(skeleton.names, model.joint_names)) if a != b]
+        raise InbetweenError(f"skeleton mismatch: joint names differ from the model's ({'; '.join(diff[:4])}"
+                             f"{' ...' if len(diff) > 4 else ''}); rename or reorder the joints")
+
+
+def transitions_in_frame(model: Model, start_rotations, start_positions, start_contacts, target_rotations,
+                         target_positions, target_contacts, length: int, num_samples: int, seed=0,
+                         search: int = 0):
+    """Transitions between B keyframe pairs given in any world frame, returned in that frame.
+
+    Keyframes: local rotations (B, J, 4), local positions (B, J, 3) (root = world position, others
+    = bone offsets), contacts (B, C). Returns (rotations (B, S, L+2, J, 4), positions (B, S, L+2, J, 3),
+    stitch_loss (B, S)) float64: frame 0 and L+1 are the input keyframes exactly; non-root local
+    positions are the start keyframe's bone offsets.
+    """
+    sr, sp = np.asarray(start_rotations, np.float64), np.asarray(start_positions, np.float64)
+    tr, tp = np.asarray(target_rotations, np.float64), np.asarray(target_positions, np.float64)
+    parents = model.parents
+    if sr.ndim != 3 or sr.shape[1:] != (len(parents), 4) or sp.shape != sr.shape[:2] + (3,) \
+            or tr.shape != sr.shape or tp.shape != sp.shape:
+        raise InbetweenError(f"keyframes must be rotations (B, {len(parents)}, 4) and positions (B, "
+                             f"{len(parents)}, 3); got {sr.shape}, {sp.shape}, {tr.shape}, {tp.shape}")
+    aligned_rot, aligned_pos, turn, centre = _alignment(sr, sp, tr, tp, parents)
+    start = {"rotations": aligned_rot[:, 0], "root_position": aligned_pos[:, 0, 0],
+             "contacts": np.asarray(start_contacts, np.float64)}
+    target = {"rotations": aligned_rot[:, 1], "root_position": aligned_pos[:, 1, 0],
+              "contacts": np.asarray(target_contacts, np.float64)}
+    out = sample_transitions(model, start, target, sp, length, num_samples, seed, search)
+
+    rotations = out["rotations"].astype(np.float64)  # (B, S, T, J, 4)
+    roots = out["root_positions"].astype(np.float64)  # (B, S, T, 3)
+    back = R.quat_conjugate(turn)[:, None, None, :]  # (B, 1, 1, 4)
+    rotations[..., 0, :] = R.quat_mul(np.broadcast_to(back, rotations[..., 0, :].shape), rotations[..., 0, :])
+    roots = R.quat_rotate(np.broadcast_to(back, roots.shape[:-1] + (4,)), roots) + centre[:, None, None, :]
+    rotations = R.quat_normalize(rotations)
+    rotations[:, :, 0] = sr[:, None]
+    rotations = R.quat_continuity(rotations, axis=2)
+    rotations[:, :, 0] = sr[:, None]
+    rotations[:, :, -1] = tr[:, None]
+    positions = np.broadcast_to(sp[:, None, None], rotations.shape[:-1] + (3,)).copy()
+    positions[..., 0, :] = roots
+    positions[:, :, 0] = sp[:, None]
+    positions[:, :, -1] = tp[:, None]
+    return rotations, positions, out["stitch_loss"].astype(np.float64)
+
+
+# ------------------------------------------------------------------------------------------ Motion API
+
+
+def _keyframe(motion: Motion, which: str):
+    if not isinstance(motion, Motion):
+        raise InbetweenError(f"{which} must be a stitchjax.bvh.Motion (e.g. motion[frame]), got "
+                             f"{type(motion).__name__}")
+    if motion.num_frames < 1:
+        raise InbetweenError(f"{which} has no frames")
+
+
+def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samples: int = 1, seed=0,
+              search: int = 0, start_contacts=None, target_contacts=None) -> list:
+    """Generate ``num_samples`` transitions of ``length`` frames from ``start`` to ``target``.
+
+    start: Motion whose LAST frame is the start keyframe (earlier frames, if any, are context: the one
+      before the keyframe measures its foot contacts). target: Motion whose FIRST frame is the target
+      keyframe (a following frame, if any, measures its contacts). Both on the model's skeleton.
+    length: generated frames L >= 1. seed: int or jax PRNG key. search: 0 = plain sampling; M >= 1 =
+      try M latent pairs per wanted sample and keep the num_samples with the lowest stitching loss.
+    start_contacts / target_contacts: (C,) foot contacts to use instead of measuring them.
+    Returns a list of ``num_samples`` Motions of L + 2 frames (start keyframe, L generated frames,
+    target keyframe; same skeleton, fps and channel layout as ``start``), in sampling order, or in
+    increasing stitching loss with ``search``. Each carries no extra attributes; use
+    :func:`transitions_in_frame` for the stitching losses.
+    """
+    _keyframe(start, "start")
+    _keyframe(target, "target")
+    _check_skeleton(model, start.skeleton)
+    _check_skeleton(model, target.skeleton)
+    _check_request(model, length, num_samples, search)
+    parents = model.parents
+    start_global = forward_kinematics(start.rotations[-2:], start.positions[-2:], parents)[1]
+    target_global = forward_kinematics(target.rotations[:2], target.positions[:2], parents)[1]
+    if start_contacts is None:
+        start_contacts = keyframe_contacts(start_global[-1], model.feet,
+                                           start_global[-2] if start.num_frames > 1 else None)
+    if target_contacts is None:
+        target_contacts = keyframe_contacts(target_global[0], model.feet,
+                                            target_global[1] if target.num_frames > 1 else None)
+    rotations, positions, _ = transitions_in_frame(
+        model, start.rotations[-1:], start.positions[-1:], np.asarray(start_contacts)[None],
+        target.rotations[:1], target.positions[:1], np.asarray(target_contacts)[None], length, num_samples,
+        seed, search)
+    return [start.with_frames(rotations[0, s], positions[0, s]) for s in range(num_samples)]
+
+
+def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: int, length: int | None = None,
+                   num_samples: int = 1, seed=0, search: int = 0) -> list:
+    """Replace the frames between two keyframes of a take by generated transitions.
+
+    Keyframes: ``motion`` frames ``start_frame`` (A) and ``end_frame`` (B), A < B. length: generated
+    frames (default B - A - 1, the frames replaced). Returns ``num_samples`` Motions: frames 0..A of
+    ``motion``, L generated frames, frames B..end of ``motion`` (T - (B - A - 1) + L frames).
+    Contacts of the keyframes: measured against frame A - 1 and B + 1 (the frames being replaced are
+    never looked at), or the other side at the ends of the take.
+    """
+    if not isinstance(motion, Motion):
+        raise InbetweenError(f"expected a stitchjax.bvh.Motion, got {type(motion).__name__}")
+    total = motion.num_frames
+    for name, frame in (("start frame", start_frame), ("end frame", end_frame)):
+        if int(frame) != frame or not 0 <= frame < total:
+            raise InbetweenError(f"{name} {frame} is out of range: the motion has {total} frames (0..{total - 1})")
+    if end_frame <= start_frame:
+        raise InbetweenError(f"end frame {end_frame} must come after start frame {start_frame}")
+    if length is None:
+        length = end_frame - start_frame - 1
+        if length < 1:
+            raise InbetweenError(f"frames {start_frame} and {end_frame} are adjacent: nothing to generate; "
+                                 f"give a length >= 1 or keyframes further apart")
+    _check_skeleton(model, motion.skeleton)
+    _check_request(model, length, num_samples, search)
+    before = start_frame - 1 if start_frame > 0 else (start_frame + 1 if start_frame + 1 < total else None)
+    after = end_frame + 1 if end_frame + 1 < total else (end_frame - 1 if end_frame > 0 else None)
+    frames = sorted({f for f in (before, start_frame, end_frame, after) if f is not None})
+    _, global_positions = forward_kinematics(motion.rotations[frames], motion.positions[frames],
+                                             motion.skeleton.parents)
+    gpos = dict(zip(frames, global_positions))
+    start_contacts = keyframe_contacts(gpos[start_frame], model.feet, None if before is None else gpos[before])
+    target_contacts = keyframe_contacts(gpos[end_frame], model.feet, None if after is None else gpos[after])
+    samples = inbetween(model, motion[start_frame], motion[end_frame], length, num_samples, seed, search,
+                        start_contacts, target_contacts)
+    out = []
+    for s in samples:
+        rotations = np.concatenate([motion.rotations[:start_frame], s.rotations, motion.rotations[end_frame + 1:]])
+        positions = np.concatenate([motion.positions[:start_frame], s.positions, motion.positions[end_frame + 1:]])
+        out.append(motion.with_frames(rotations, positions))
+    return out
+
+
+# ------------------------------------------------------------------------------------------ evaluation
+
+
+def model_method(model, search: int = 0):
+    """The model as a ``stitchjax.evaluate`` method:
+    ``method(windows, start, length, num_samples, seed) -> (rotations (S, B, L, J, 4), positions (S, B, L, J, 3))``.
+
+    model: a :class:`Model` or a checkpoint path (loaded once). The method uses frames ``start`` and
+    ``start + length + 1`` of each window and their foot-contact labels from ``windows.contacts``
+    (the keyframes' character state, as in training); it returns the L generated frames only.
+    """
+    if not isinstance(model, Model):
+        model = load_model(model)
+
+    def method(windows, start, length, num_samples, seed):
+        _check_skeleton(model, windows.skeleton)
+        target = start + length + 1
+        if not 0 <= start < target < windows.rotations.shape[1]:
+            raise InbetweenError(f"keyframes {start} and {target} are outside windows of "
+                                 f"{windows.rotations.shape[1]} frames")
+        rot, pos = np.asarray(windows.rotations), np.asarray(windows.positions)
+        contacts = np.asarray(windows.contacts)
+        rotations, positions, _ = transitions_in_frame(
+            model, rot[:, start], pos[:, start], contacts[:, start], rot[:, target], pos[:, target],
+            contacts[:, target], length, num_samples, seed, search)
+        # (B, S, L+2, ...) -> generated frames, samples first: (S, B, L, ...)
+        return (np.swapaxes(rotations[:, :, 1:-1], 0, 1), np.swapaxes(positions[:, :, 1:-1], 0, 1))
+
+    method.model = model
+    return method
+
+
+def evaluation_method(checkpoint, search: int = 0):
+    """What ``bin/evaluate model --checkpoint DIR`` calls: :func:`model_method` of the checkpoint."""
+    return model_method(load_model(checkpoint), search=search)

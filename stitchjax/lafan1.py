@@ -1,0 +1,271 @@
+"""LAFAN1: file listing, training / test windows and normalisation statistics (float64).
+
+Reproduces the official benchmark's data preparation (ubisoft-laforge-animation-dataset,
+``lafan1/extract.py``; DESIGN.md §4): for every file of the chosen subjects, windows of ``window``
+frames every ``offset`` frames over the file's whole frame range (``start + window < T``), contacts
+on the raw windows, then centring and facing alignment at frame 9. Training: subjects 1-4, 50/20.
+Benchmark test set: subject5, 65/40 (2232 windows on the full release).
+
+Works on a folder holding any subset of the 77 release files, ``.bvh`` or ``.bvh.gz`` (names as in
+the release: ``<action>_<subject>.bvh``); other files in the folder are ignored. Results are cached
+on disk (see :mod:`stitchjax.cache`), keyed by the files' contents.
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+import pathlib
+import re
+
+import numpy as np
+
+from stitchjax import cache
+from stitchjax.skeleton import LAFAN1_FEET, forward_kinematics
+from stitchjax.windows import (FACING_FRAME, Stats, Windows, center_and_face, center_and_face_global,
+                               combine_moments, contacts_from_displacement, moments,
+                               stats_from_moments, window_indices, window_starts)
+
+__all__ = [
+    "LAFAN1NotFoundError", "Stats", "TRAIN_SUBJECTS", "TEST_SUBJECTS", "list_files", "load_windows",
+    "train_statistics", "test_windows",
+]
+
+TRAIN_SUBJECTS = ("subject1", "subject2", "subject3", "subject4")
+TEST_SUBJECTS = ("subject5",)
+TRAIN_WINDOW, TRAIN_OFFSET = 50, 20
+TEST_WINDOW, TEST_OFFSET = 65, 40
+_NAME = re.compile(r"^(?P<action>[A-Za-z0-9]+)_(?P<subject>subject\d+)\.bvh(?P<gz>\.gz)?$")
+_DOWNLOAD = ("get the release (lafan1.zip) from https://github.com/ubisoft/ubisoft-laforge-"
+             "animation-dataset and unpack it into a folder, then pass that folder")
+
+
+class LAFAN1NotFoundError(FileNotFoundError):
+    """The LAFAN1 folder, or the files of the subjects a step needs, are missing."""
+
+
+def list_files(data_dir) -> dict:
+    """LAFAN1 files in ``data_dir`` by subject: ``{"subject1": [Path, ...], ...}`` (sorted by name).
+
+    Accepts ``.bvh`` and ``.bvh.gz``; when both exist for one take, the ``.bvh`` is used. Raises
+    :class:`LAFAN1NotFoundError` when the folder does not exist.
+    """
+    folder = pathlib.Path(os.fspath(data_dir)).expanduser()
+    if not folder.is_dir():
+        what = "is a file, not a folder" if folder.exists() else "does not exist"
+        raise LAFAN1NotFoundError(f"LAFAN1 folder {folder} {what}: {_DOWNLOAD} (e.g. --data PATH).")
+    takes = {}
+    for path in folder.iterdir():
+        match = _NAME.match(path.name)
+        if match is None or not path.is_file():
+            continue
+        stem = f"{match['action']}_{match['subject']}"
+        if stem not in takes or not match["gz"]:  # prefer the uncompressed file
+            takes[stem] = (match["subject"], path)
+    by_subject = {}
+    for stem in sorted(takes):
+        subject, path = takes[stem]
+        by_subject.setdefault(subject, []).append(path)
+    return dict(sorted(by_subject.items(), key=lambda kv: _subject_number(kv[0])))
+
+
+def _subject_number(subject: str) -> int:
+    return int(subject[len("subject"):])
+
+
+def _files_for(data_dir, subjects, purpose: str) -> list:
+    """Sorted files of ``subjects``; a clear error when none of them is present."""
+    subjects = (subjects,) if isinstance(subjects, str) else tuple(subjects)
+    found = list_files(data_dir)
+    files = sorted((p for s in subjects for p in found.get(s, [])), key=lambda p: p.name)
+    if not files:
+        folder = pathlib.Path(os.fspath(data_dir)).expanduser()
+        if found:
+            have = ", ".join(f"{s} ({len(v)} files)" for s, v in found.items())
+            have = f"it holds files of {have}"
+        else:
+            have = "it holds no LAFAN1 files (expected names like walk1_subject1.bvh or .bvh.gz)"
+        raise LAFAN1NotFoundError(
+            f"no LAFAN1 files of {', '.join(subjects)} in {folder}: {have}. {purpose} needs at least "
+            f"one file of {' or '.join(subjects)}; {_DOWNLOAD}.")
+    return files
+
+
+def _load_motion(path):
+    from stitchjax import bvh  # imported here: only a cache miss needs the BVH reader
+    return bvh.load(path)
+
+
+def _file_windows(path, window, offset, feet, frame, what):
+    """Windows of one file. ``what``: "windows" -> dict with rotations, positions, contacts, starts;
+    "moments" -> dict with the moments of the aligned global positions and the first window's
+    first-frame local positions (no windows returned). Both carry skeleton names/parents/offsets, fps.
+    FK runs once over the file (a raw window's FK is a slice of it); alignment touches only the root.
+    """
+    motion = _load_motion(path)
+    sk = motion.skeleton
+    out = {"names": sk.names, "parents": sk.parents, "offsets": sk.offsets, "fps": motion.fps,
+           "name": pathlib.Path(path).name}
+    starts = window_starts(motion.num_frames, window, offset)
+    out["starts"] = starts
+    if len(starts) == 0:
+        return out
+    idx = window_indices(starts, window)
+    _, raw_global = forward_kinematics(motion.rotations, motion.positions, sk.parents)
+    if what == "moments":
+        gpos = center_and_face_global(raw_global[idx], motion.positions[idx, 0],
+                                      motion.rotations[idx, 0], frame)
+        out["moments"] = moments(gpos.reshape(-1, gpos.shape[-2] * 3))
+        _, first = center_and_face(motion.rotations[idx[:1]], motion.positions[idx[:1]], sk.parents,
+                                   frame)
+        out["first_local_positions"] = first[0, 0]
+        return out
+    feet_pos = raw_global[:, list(feet)]
+    step = np.sum((feet_pos[1:] - feet_pos[:-1]) ** 2, axis=-1)  # (T-1, C) squared displacements
+    out["contacts"] = contacts_from_displacement(step[idx[:, :-1]])
+    out["rotations"], out["positions"] = center_and_face(
+        motion.rotations[idx], motion.positions[idx], sk.parents, frame)
+    return out
+
+
+def _jax_backend_started() -> bool:
+    """True when JAX may be running threads (forking then is unsafe); False when it cannot be."""
+    import sys
+    if "jax" not in sys.modules:
+        return False
+    try:
+        from jax._src import xla_bridge
+        return bool(xla_bridge._backends)
+    except Exception:  # private API moved: assume the worst
+        return True
+
+
+def _map_files(files, *args, workers=None):
+    """``_file_windows(f, *args)`` for every file, in order; in forked worker processes when there
+    are several files and cores and JAX has not started (BVH parsing dominates a cold build)."""
+    if workers is None:
+        workers = min(len(files), os.cpu_count() or 1)
+    if workers > 1 and not _jax_backend_started():
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+        try:
+            context = multiprocessing.get_context("fork")
+        except ValueError:
+            context = None
+        if context is not None:
+            with ProcessPoolExecutor(workers, mp_context=context) as pool:
+                return list(pool.map(_file_windows, files, *[[a] * len(files) for a in args]))
+    return [_file_windows(f, *args) for f in files]
+
+
+def _check_same_skeleton(results, files):
+    first = results[0]
+    for r, path in zip(results, files):
+        if (r["names"], r["parents"]) != (first["names"], first["parents"]):
+            raise ValueError(f"{path} has a different joint hierarchy from {files[0]}; all files of "
+                             f"a set must share one skeleton")
+
+
+def build_windows(files, window: int, offset: int, feet=LAFAN1_FEET, frame: int = FACING_FRAME,
+                  workers=None) -> Windows:
+    """Windows of the given BVH files (no caching): see the module docstring for the steps.
+
+    Files in the given order, windows in start order; the skeleton (and its offsets) is the first
+    file's. Raises ValueError when the files do not share one joint hierarchy.
+    """
+    files = list(files)
+    if not files:
+        raise ValueError("no files given")
+    results = _map_files(files, window, offset, tuple(feet), frame, "windows", workers=workers)
+    _check_same_skeleton(results, files)
+    from stitchjax.skeleton import Skeleton
+    first = results[0]
+    skeleton = Skeleton(first["names"], first["parents"], first["offsets"])
+    kept = [r for r in results if len(r["starts"])]
+    j = skeleton.num_joints
+
+    def cat(key, shape):
+        return (np.concatenate([r[key] for r in kept]) if kept
+                else np.zeros((0, window) + shape))
+
+    sources = [f"{r['name']}:{s}" for r in kept for s in r["starts"]]
+    return Windows(cat("rotations", (j, 4)), cat("positions", (j, 3)), cat("contacts", (len(feet),)),
+                   skeleton, first["fps"], sources)
+
+
+def build_statistics(files, window: int = TRAIN_WINDOW, offset: int = TRAIN_OFFSET,
+                     frame: int = FACING_FRAME, workers=None) -> Stats:
+    """:class:`Stats` of the windows of the given files (no caching), without materialising them."""
+    files = list(files)
+    if not files:
+        raise ValueError("no files given")
+    results = _map_files(files, window, offset, LAFAN1_FEET, frame, "moments", workers=workers)
+    _check_same_skeleton(results, files)
+    kept = [r for r in results if len(r["starts"])]
+    if not kept:
+        raise ValueError(f"no file is longer than {window} frames: no training windows")
+    total = (0, 0.0, 0.0)
+    for r in kept:
+        total = combine_moments(total, r["moments"])
+    return stats_from_moments(total, kept[0]["first_local_positions"])
+
+
+def _windows_to_arrays(w: Windows) -> dict:
+    return {"rotations": w.rotations, "positions": w.positions, "contacts": w.contacts,
+            "sources": np.array(w.sources, dtype=str), "fps": np.float64(w.fps),
+            "names": np.array(w.skeleton.names, dtype=str),
+            "parents": np.array(w.skeleton.parents, dtype=np.int64), "offsets": w.skeleton.offsets}
+
+
+def _arrays_to_windows(a: dict) -> Windows:
+    from stitchjax.skeleton import Skeleton
+    skeleton = Skeleton(tuple(a["names"].tolist()), tuple(a["parents"].tolist()), a["offsets"])
+    return Windows(a["rotations"], a["positions"], a["contacts"], skeleton, float(a["fps"]),
+                  a["sources"].tolist())
+
+
+def load_windows(data_dir, subjects, window: int, offset: int, cache_dir=None) -> Windows:
+    """Centred, facing-aligned windows with contacts, float64, of all files of ``subjects``.
+
+    Args:
+      data_dir: a folder with LAFAN1 files (any subset of the release; .bvh or .bvh.gz).
+      subjects: e.g. ``("subject1", ..., "subject4")`` or ``"subject5"``.
+      window, offset: window length and stride in frames (training 50/20, test 65/40).
+      cache_dir: see :func:`stitchjax.cache.resolve_cache_dir` (False disables the cache).
+    Returns:
+      :class:`Windows` (N, window, 22, ...), files in name order, windows in start order.
+    Raises :class:`LAFAN1NotFoundError` when the folder or every file of ``subjects`` is missing.
+    """
+    subjects = (subjects,) if isinstance(subjects, str) else tuple(subjects)
+    files = _files_for(data_dir, subjects, f"Loading windows of {', '.join(subjects)}")
+    params = {"window": int(window), "offset": int(offset), "frame": FACING_FRAME,
+              "feet": list(LAFAN1_FEET)}
+    arrays = cache.cached("lafan1-windows", files, params,
+                          lambda: _windows_to_arrays(build_windows(files, window, offset)), cache_dir)
+    return _arrays_to_windows(arrays)
+
+
+def train_statistics(data_dir, subjects=TRAIN_SUBJECTS, window: int = TRAIN_WINDOW,
+                     offset: int = TRAIN_OFFSET, cache_dir=None) -> Stats:
+    """Normalisation statistics of the training windows (official ``get_train_stats``).
+
+    Global positions (FK, centred + faced) of all training windows -> per-coordinate mean and
+    population std, (J*3,) = (66,) in joint-major order (joint j, axis a at 3*j + a), cm.
+    ``offsets`` (J, 3): the local positions in the first frame of the first training window (files
+    in name order); row 0 (the root) is zero, since the root's local position is its trajectory.
+    """
+    subjects = (subjects,) if isinstance(subjects, str) else tuple(subjects)
+    files = _files_for(data_dir, subjects, "The training statistics (subjects 1-4)")
+    params = {"window": int(window), "offset": int(offset), "frame": FACING_FRAME}
+
+    def compute():
+        return dataclasses.asdict(build_statistics(files, window, offset))
+
+    arrays = cache.cached("lafan1-stats", files, params, compute, cache_dir)
+    return Stats(**arrays)
+
+
+def test_windows(data_dir, cache_dir=None) -> Windows:
+    """The official benchmark test set: subject5, windows of 65 frames every 40 (2232 windows on
+    the full release). Raises :class:`LAFAN1NotFoundError` when the folder has no subject5 file."""
+    _files_for(data_dir, TEST_SUBJECTS, "The benchmark test set")
+    return load_windows(data_dir, TEST_SUBJECTS, TEST_WINDOW, TEST_OFFSET, cache_dir)

@@ -1,0 +1,244 @@
+"""Networks (flax.linen, pure init/apply): the S-CVAE generator and the LSGAN discriminators.
+
+Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step::
+
+    state (S) ──► state encoder  (3 FC) ─┐
+    offset (J*4+3 [+1]) ► offset encoder (3 FC) ─┼─ concat ─► LSTM cell ─► h ─┬─► FC ─► (mu, logvar)   current
+    target (S) ─► target encoder (3 FC) ─┘                                    └─► FC ─► (mu_t, logvar_t) target
+    latent interpolation: N((1-g) mu + g mu_t, sigma_g^2), z = mu_g + sigma_g * eps
+    decoder: [z, state, target, h] ─► mixture of E experts (gating MLP on the phase features)
+             ─► (root velocity 3, quaternion update J*4, contact logits C)
+
+The expert blend mixes each layer's expert *outputs* (``einsum`` over the expert axis), never a blended
+weight matrix per example. Discriminators (RMIB style): a temporal convolution whose kernel spans the
+whole window (2 or 10 frames) over per-frame features, then dense layers; one score per window position.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+
+__all__ = [
+    "MLP", "MoEDense", "Generator", "Discriminator", "init_params", "make_generator",
+    "make_discriminator", "initial_carry", "blend_gaussians", "disc_feature_dim", "phase_dim",
+    "generator_input_dims",
+]
+
+_ACTIVATIONS = {"elu": nn.elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
+                "leaky_relu": lambda x: nn.leaky_relu(x, 0.2), "tanh": jnp.tanh}
+
+
+def activation_fn(name: str):
+    try:
+        return _ACTIVATIONS[name]
+    except KeyError:
+        raise ValueError(f"unknown activation {name!r}; use one of {', '.join(_ACTIVATIONS)}") from None
+
+
+class MLP(nn.Module):
+    """Dense layers of the given widths; activation after every layer but (optionally) the last."""
+
+    widths: tuple
+    activation: str = "elu"
+    activate_last: bool = True
+
+    @nn.compact
+    def __call__(self, x):
+        act = activation_fn(self.activation)
+        for i, width in enumerate(self.widths):
+            x = nn.Dense(width, name=f"dense_{i}")(x)
+            if self.activate_last or i < len(self.widths) - 1:
+                x = act(x)
+        return x
+
+
+class MoEDense(nn.Module):
+    """Dense layer of E experts blended by per-example coefficients.
+
+    x (..., in), coefficients (..., E) -> (..., out) = sum_e c_e (x @ W_e + b_e). Computed as two
+    einsums (all experts' outputs, then the weighted sum over experts), which equals using the blended
+    weights sum_e c_e W_e but is a single large matmul under vmap.
+    """
+
+    features: int
+    num_experts: int
+
+    @nn.compact
+    def __call__(self, x, coefficients):
+        init = nn.initializers.variance_scaling(1.0, "fan_in", "truncated_normal", in_axis=-2, out_axis=-1,
+                                                batch_axis=(0,))
+        kernel = self.param("kernel", init, (self.num_experts, x.shape[-1], self.features))
+        bias = self.param("bias", nn.initializers.zeros, (self.num_experts, self.features))
+        expert_outputs = jnp.einsum("...i,eio->...eo", x, kernel) + bias
+        return jnp.einsum("...e,...eo->...o", coefficients, expert_outputs)
+
+
+def blend_gaussians(mu, logvar, mu_t, logvar_t, gamma, mode: str = "std"):
+    """Latent interpolation (paper Eq. 1): blend N(mu, s^2) and N(mu_t, s_t^2) with weight gamma.
+
+    Mean (1-g) mu + g mu_t. mode "std": sigma = (1-g) s + g s_t (Wasserstein-2 geodesic between the
+    diagonal Gaussians); mode "var": sigma^2 = (1-g)^2 s^2 + g^2 s_t^2 (law of (1-g) z + g z_t, independent).
+    Returns (mu_blend, logvar_blend).
+    """
+    mean = (1.0 - gamma) * mu + gamma * mu_t
+    if mode == "std":
+        std = (1.0 - gamma) * jnp.exp(0.5 * logvar) + gamma * jnp.exp(0.5 * logvar_t)
+        return mean, 2.0 * jnp.log(std)
+    if mode == "var":
+        var = (1.0 - gamma) ** 2 * jnp.exp(logvar) + gamma ** 2 * jnp.exp(logvar_t)
+        return mean, jnp.log(var)
+    raise ValueError(f"model.variance_blend={mode!r}: use 'std' or 'var'")
+
+
+class Generator(nn.Module):
+    """One S-CVAE step. See the module docstring; ``config`` is the whole Config (static, hashable)."""
+
+    config: Any
+
+    @nn.compact
+    def __call__(self, carry, state, target, offset, gamma, phase, eps):
+        """One step for one example (vmap for batches).
+
+        Args:
+          carry: LSTM carry (c (H,), h (H,)).
+          state, target: (S,) current and target character states.
+          offset: (J*4 + 3 [+ 1]) offset features (+ time to target when model.time_to_target_input).
+          gamma: () latent interpolation weight in [0, 1].
+          phase: (P,) phase features of the current frame (ignored without phase modulation).
+          eps: (latent_dim,) standard normal noise.
+        Returns:
+          (new_carry, outputs) with outputs: "velocity" (3,), "rotation_update" (J*4,),
+          "contact_logits" (C,), "mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend"
+          (latent_dim,) each.
+        """
+        m = self.config.model
+        data = self.config.data
+        latent = m.latent_dim
+        e_state = MLP(tuple(m.encoder_widths), m.activation, name="state_encoder")(state)
+        e_offset = MLP(tuple(m.encoder_widths), m.activation, name="offset_encoder")(offset)
+        e_target = MLP(tuple(m.encoder_widths), m.activation, name="target_encoder")(target)
+        x = jnp.concatenate([e_state, e_offset, e_target], axis=-1)
+        carry, h = nn.OptimizedLSTMCell(m.lstm_size, name="lstm")(carry, x)
+        current_head = nn.Dense(2 * latent, name="current_head")(h)
+        target_head = nn.Dense(2 * latent, name="target_head")(h)
+        mu, logvar = current_head[..., :latent], current_head[..., latent:]
+        mu_t, logvar_t = target_head[..., :latent], target_head[..., latent:]
+        if m.latent_interpolation:
+            mu_b, logvar_b = blend_gaussians(mu, logvar, mu_t, logvar_t, gamma, m.variance_blend)
+        else:
+            mu_b, logvar_b = mu, logvar
+        z = mu_b + jnp.exp(0.5 * logvar_b) * eps
+
+        parts = [z, state, target] + ([h] if m.decoder_uses_lstm else [])
+        y = jnp.concatenate(parts, axis=-1)
+        num_out = 3 + data.num_joints * 4 + data.num_contacts
+        widths = tuple(m.decoder_widths) + (num_out,)
+        if m.phase_modulation:
+            gating = MLP(tuple(m.gating_widths) + (m.num_experts,), m.activation, activate_last=False,
+                         name="gating")(phase)
+            coefficients = jax.nn.softmax(gating, axis=-1)
+            act = activation_fn(m.activation)
+            for i, width in enumerate(widths):
+                y = MoEDense(width, m.num_experts, name=f"expert_{i}")(y, coefficients)
+                if i < len(widths) - 1:
+                    y = act(y)
+        else:
+            y = MLP(widths, m.activation, activate_last=False, name="decoder")(y)
+        n = data.num_joints * 4
+        outputs = {
+            "velocity": y[..., :3], "rotation_update": y[..., 3:3 + n], "contact_logits": y[..., 3 + n:],
+            "mu": mu, "logvar": logvar, "mu_target": mu_t, "logvar_target": logvar_t,
+            "mu_blend": mu_b, "logvar_blend": logvar_b,
+        }
+        return carry, outputs
+
+
+class Discriminator(nn.Module):
+    """LSGAN discriminator over windows of ``window`` frames.
+
+    features (..., T, F) -> scores (..., T - window + 1): a temporal conv (kernel = window, VALID), then
+    dense layers (leaky ReLU 0.2) to one linear score per window position.
+    """
+
+    window: int
+    widths: tuple = (512, 256)
+
+    @nn.compact
+    def __call__(self, features):
+        lead = features.shape[:-2]
+        x = features.reshape((-1,) + features.shape[-2:])
+        x = nn.Conv(self.widths[0], kernel_size=(self.window,), padding="VALID", name="temporal_conv")(x)
+        x = nn.leaky_relu(x, 0.2)
+        for i, width in enumerate(self.widths[1:]):
+            x = nn.leaky_relu(nn.Dense(width, name=f"dense_{i}")(x), 0.2)
+        x = nn.Dense(1, name="score")(x)[..., 0]
+        return x.reshape(lead + x.shape[-1:])
+
+
+# ---------------------------------------------------------------------------------------------------
+
+
+def phase_dim(config) -> int:
+    """P = 2 phase features per contact channel."""
+    return 2 * config.data.num_contacts
+
+
+def disc_feature_dim(config) -> int:
+    """Per-frame discriminator features: positions relative to the root (J-1)*3 + root velocity 3."""
+    return (config.data.num_joints - 1) * 3 + 3
+
+
+def generator_input_dims(config) -> dict:
+    """Sizes of the generator's per-step inputs (one example)."""
+    from stitchjax import features
+
+    s = features.state_dim(config)
+    offset = config.data.num_joints * 4 + 3 + (1 if config.model.time_to_target_input else 0)
+    return {"state": s, "target": s, "offset": offset, "phase": phase_dim(config),
+            "eps": config.model.latent_dim}
+
+
+def make_generator(config) -> Generator:
+    return Generator(config)
+
+
+def make_discriminator(config, which: str) -> Discriminator:
+    window = config.model.disc_short_window if which == "disc_short" else config.model.disc_long_window
+    return Discriminator(window=window, widths=tuple(config.model.disc_widths))
+
+
+def initial_carry(config, dtype=jnp.float32):
+    """Zero LSTM carry (c, h) for one example."""
+    zeros = jnp.zeros((config.model.lstm_size,), dtype)
+    return (zeros, zeros)
+
+
+def init_params(config, key, num_joints: int | None = None) -> dict:
+    """Fresh parameters {"forward", "backward", "disc_short", "disc_long"} (independent generators).
+
+    num_joints: must match config.data.num_joints when given (kept for callers that pass it).
+    Pure jax code: works under ``jax.jit`` and ``jax.eval_shape``.
+    """
+    if num_joints is not None and num_joints != config.data.num_joints:
+        raise ValueError(f"num_joints={num_joints} but config.data.parents has {config.data.num_joints} joints; "
+                         "set data.parents for this skeleton")
+    dims = generator_input_dims(config)
+    generator = make_generator(config)
+    dummy = {name: jnp.zeros((size,), jnp.float32) for name, size in dims.items()}
+
+    def init_generator(k):
+        return generator.init(k, initial_carry(config), dummy["state"], dummy["target"], dummy["offset"],
+                              jnp.zeros((), jnp.float32), dummy["phase"], dummy["eps"])
+
+    k_fwd, k_bwd, k_short, k_long = jax.random.split(key, 4)
+    frames = max(config.model.disc_long_window, config.model.disc_short_window)
+    disc_in = jnp.zeros((1, frames, disc_feature_dim(config)), jnp.float32)
+    return {
+        "forward": init_generator(k_fwd),
+        "backward": init_generator(k_bwd),
+        "disc_short": make_discriminator(config, "disc_short").init(k_short, disc_in),
+        "disc_long": make_discriminator(config, "disc_long").init(k_long, disc_in),
+    }

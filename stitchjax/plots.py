@@ -1,0 +1,398 @@
+"""Figures for motions: stick figures, filmstrips, root trajectories, error over time, GIFs.
+
+Everything takes FK *global* positions (file units, Y-up) and the skeleton's ``parents`` tuple, draws
+on matplotlib's non-interactive Agg canvas (no pyplot, no display), and returns the ``matplotlib.figure.Figure``; pass
+``path=`` to also write a PNG (or a GIF for :func:`animate`). Figure pixel size = ``figsize * dpi``
+exactly (no tight bounding box), so callers and tests can rely on it.
+
+Views: poses are drawn in a vertical plane seen from the side. ``view="side"`` looks along -Z (the
+x-y plane), ``view="front"`` along +X (the z-y plane), a number is an azimuth in degrees (the
+horizontal screen axis is ``cos(a) x + sin(a) z``), and ``view="auto"`` (default) picks the azimuth of
+the main direction of root travel, so a walking character is seen in profile.
+
+Colours: keyframes are drawn in black, transition frames with a colour map running from the start to
+the target keyframe, other frames (context kept from the file) in light grey.
+"""
+from __future__ import annotations
+
+import os
+import pathlib
+from typing import Mapping, Sequence
+
+import matplotlib
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+__all__ = [
+    "horizontal_axis", "project", "draw_skeleton", "stick_figure", "filmstrip",
+    "root_trajectories", "error_over_time", "per_frame_error", "animate", "frame_colors",
+]
+
+KEYFRAME_COLOR = "black"
+CONTEXT_COLOR = "0.75"
+DEFAULT_CMAP = "viridis"
+
+
+# --------------------------------------------------------------------------------------- geometry
+
+
+def horizontal_axis(positions, view="auto") -> np.ndarray:
+    """Unit horizontal direction (x, z) used as the screen's horizontal axis.
+
+    positions: (..., T, J, 3) or a list of such arrays (global, Y-up); only used by ``view="auto"``,
+    which takes the principal direction of the root's x-z displacement over all frames (or +X when
+    the root hardly moves).
+    """
+    if isinstance(view, str):
+        if view == "side":
+            return np.array([1.0, 0.0])
+        if view == "front":
+            return np.array([0.0, 1.0])
+        if view != "auto":
+            raise ValueError(f"view must be 'auto', 'side', 'front' or an azimuth in degrees, got {view!r}")
+        arrays = positions if isinstance(positions, (list, tuple)) else [positions]
+        roots = [np.asarray(p, dtype=np.float64)[..., 0, :].reshape(-1, 3)[:, [0, 2]] for p in arrays]
+        xz = np.concatenate([r - r.mean(axis=0) for r in roots], axis=0)
+        if xz.shape[0] < 2 or np.abs(xz).max() < 1e-6:
+            return np.array([1.0, 0.0])
+        _, s, vt = np.linalg.svd(xz, full_matrices=False)
+        direction = vt[0]
+        if s[0] < 1e-6:
+            return np.array([1.0, 0.0])
+        # Point the axis along the travel from the first to the last root position of the first motion.
+        first = roots[0]
+        if np.dot(first[-1] - first[0], direction) < 0:
+            direction = -direction
+        return direction / np.linalg.norm(direction)
+    angle = np.deg2rad(float(view))
+    return np.array([np.cos(angle), np.sin(angle)])
+
+
+def project(positions, axis) -> np.ndarray:
+    """(..., 3) global positions -> (..., 2) screen coordinates (horizontal along ``axis``, height y)."""
+    p = np.asarray(positions, dtype=np.float64)
+    h = p[..., 0] * axis[0] + p[..., 2] * axis[1]
+    return np.stack([h, p[..., 1]], axis=-1)
+
+
+def frame_colors(num_frames: int, keyframes: Sequence[int] = (), transition: tuple | None = None,
+                 cmap: str = DEFAULT_CMAP) -> list:
+    """One matplotlib colour per frame: black at ``keyframes``, the colour map over the
+    ``transition`` frames (first, last) inclusive, light grey elsewhere.
+
+    ``transition=None`` colours every non-keyframe with the colour map.
+    """
+    colormap = matplotlib.colormaps[cmap]
+    first, last = (0, num_frames - 1) if transition is None else transition
+    span = max(last - first, 1)
+    colors = []
+    for t in range(num_frames):
+        if t in keyframes:
+            colors.append(KEYFRAME_COLOR)
+        elif first <= t <= last:
+            colors.append(colormap(0.1 + 0.8 * (t - first) / span))
+        else:
+            colors.append(CONTEXT_COLOR)
+    return colors
+
+
+def _check_pose(positions, parents):
+    p = np.asarray(positions, dtype=np.float64)
+    if p.ndim != 2 or p.shape[-1] != 3 or p.shape[0] != len(parents):
+        raise ValueError(f"a pose must be global positions (J, 3) with J = {len(parents)} joints, got "
+                         f"shape {p.shape}")
+    return p
+
+
+# ----------------------------------------------------------------------------------------- poses
+
+
+def draw_skeleton(ax, positions, parents, *, axis=(1.0, 0.0), shift: float = 0.0, color="C0",
+                  linewidth: float = 1.5, alpha: float = 1.0, zorder: int = 2) -> list:
+    """Draw one pose as a stick figure on ``ax``: one line per bone (J - 1 lines).
+
+    positions: (J, 3) global positions (Y-up); parents: (J,) parent indices (-1 for the root).
+    axis: horizontal screen direction (x, z) (see :func:`horizontal_axis`); shift: added to the
+    horizontal screen coordinate (to lay figures side by side). Returns the list of Line2D bones.
+    """
+    p = _check_pose(positions, parents)
+    screen = project(p, np.asarray(axis, dtype=np.float64))
+    screen[:, 0] += shift
+    lines = []
+    for j, parent in enumerate(parents):
+        if parent < 0:
+            continue
+        (line,) = ax.plot(screen[[parent, j], 0], screen[[parent, j], 1], color=color,
+                          linewidth=linewidth, alpha=alpha, solid_capstyle="round", zorder=zorder)
+        lines.append(line)
+    return lines
+
+
+def _finish(fig: Figure, path) -> Figure:
+    if path is not None:
+        path = pathlib.Path(os.fspath(path))
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=fig.dpi)
+    return fig
+
+
+def _new_figure(figsize, dpi) -> Figure:
+    # Figure() on an Agg canvas, not pyplot: no display needed, whatever backend the host uses, and
+    # figures are not kept alive by pyplot's registry (they still display inline in notebooks).
+    fig = Figure(figsize=figsize, dpi=dpi)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def stick_figure(positions, parents, *, view="auto", color="black", title: str | None = None,
+                 figsize=(3.0, 4.0), dpi: int = 100, path=None) -> Figure:
+    """One pose (J, 3) as a stick figure seen from the side. Returns the Figure (PNG at ``path``)."""
+    p = _check_pose(positions, parents)
+    fig = _new_figure(figsize, dpi)
+    ax = fig.add_subplot(1, 1, 1)
+    axis = horizontal_axis(p[None], view) if view != "auto" else np.array([1.0, 0.0])
+    draw_skeleton(ax, p, parents, axis=axis, color=color, linewidth=2.0)
+    screen = project(p, axis)
+    _frame_axes(ax, screen[:, 0].min(), screen[:, 0].max(), screen[:, 1].min(), screen[:, 1].max())
+    if title:
+        ax.set_title(title, fontsize=9)
+    return _finish(fig, path)
+
+
+def _frame_axes(ax, xmin, xmax, ymin, ymax, margin: float = 0.08):
+    """Equal aspect, a small margin, the ground line at y = ymin, no ticks."""
+    w, h = max(xmax - xmin, 1e-6), max(ymax - ymin, 1e-6)
+    pad = margin * max(w, h)
+    ax.set_xlim(xmin - pad, xmax + pad)
+    ax.set_ylim(ymin - pad, ymax + pad)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    for side in ("top", "right", "left"):
+        ax.spines[side].set_visible(False)
+
+
+# ------------------------------------------------------------------------------------- filmstrips
+
+
+def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | None = None,
+              transition: tuple | None = None, titles: Sequence[str] | None = None, view="auto",
+              spacing: float | None = None, travel: bool = False, cmap: str = DEFAULT_CMAP,
+              width_per_figure: float = 0.45, row_height: float = 1.6, dpi: int = 100,
+              figsize=None, title: str | None = None, path=None) -> Figure:
+    """Several motions as filmstrips, one row per motion, a stick figure every ``every`` frames.
+
+    motions: list of (T, J, 3) global positions (Y-up), or one (S, T, J, 3) array; all the same T.
+    keyframes: frame indices drawn in black and always drawn (default: first and last frame).
+    transition: (first, last) frames coloured with ``cmap`` (default: between the keyframes);
+      frames outside it are light grey.
+    view: see the module docstring; one axis is chosen for all rows, so rows are comparable.
+    spacing: horizontal distance between consecutive figures (file units; default 0.6 x body height);
+      each figure is centred on its own root unless ``travel=True`` (then it keeps its real
+      horizontal displacement from the first drawn frame, which shows speed but may overlap).
+    Figure size: ``figsize`` or (0.6 + width_per_figure x figures per row, row_height x rows) inches.
+    """
+    if isinstance(motions, np.ndarray) and motions.ndim == 3:
+        motions = [motions]
+    motions = [np.asarray(m, dtype=np.float64) for m in motions]
+    if not motions:
+        raise ValueError("filmstrip needs at least one motion")
+    num_frames = motions[0].shape[0]
+    for m in motions:
+        if m.ndim != 3 or m.shape[0] != num_frames or m.shape[1:] != (len(parents), 3):
+            raise ValueError(f"filmstrip motions must all be (T, J, 3) = ({num_frames}, {len(parents)}, 3) "
+                             f"global positions, got {m.shape}")
+    if every < 1:
+        raise ValueError(f"every must be >= 1, got {every}")
+    keyframes = (0, num_frames - 1) if keyframes is None else tuple(int(k) % num_frames for k in keyframes)
+    if transition is None:
+        transition = (min(keyframes), max(keyframes)) if len(keyframes) >= 2 else (0, num_frames - 1)
+    drawn = sorted(set(range(0, num_frames, every)) | set(keyframes) | {num_frames - 1})
+    colors = frame_colors(num_frames, keyframes, transition, cmap)
+    axis = horizontal_axis(motions, view)
+    ymin = min(float(m[..., 1].min()) for m in motions)
+    ymax = max(float(m[..., 1].max()) for m in motions)
+    height = max(ymax - ymin, 1e-3)
+    spacing = 0.6 * height if spacing is None else float(spacing)
+    # Screen coordinates of every drawn pose, shifted into place, to size the axes before drawing.
+    placed = []
+    for m in motions:
+        screen = project(m[drawn], axis)  # (D, J, 2)
+        root = screen[:, :1, 0]
+        if travel:
+            screen[..., 0] -= root[:1]
+        else:
+            screen[..., 0] += np.arange(len(drawn))[:, None] * spacing - root
+        placed.append(screen)
+    xmin = min(float(p[..., 0].min()) for p in placed)
+    xmax = max(float(p[..., 0].max()) for p in placed)
+    pad = 0.05 * height
+    data_w, data_h = xmax - xmin + 2 * pad, height + 2 * pad
+    label_w = 0.7 if titles is not None else 0.1
+    title_h = 0.3 if title else 0.0
+    if figsize is None:  # rows of row_height inches, width following the data's aspect
+        figsize = (label_w + 0.1 + row_height * data_w / data_h, row_height * len(motions) + title_h)
+    fig = _new_figure(figsize, dpi)
+    fig_w, fig_h = fig.get_size_inches()
+    row_h = (fig_h - title_h) / len(motions)
+    for row, (m, screen) in enumerate(zip(motions, placed)):
+        bottom = (fig_h - title_h - (row + 1) * row_h) / fig_h
+        ax = fig.add_axes((label_w / fig_w, bottom, (fig_w - label_w - 0.1) / fig_w, row_h / fig_h))
+        for k, t in enumerate(drawn):
+            is_key = t in keyframes
+            shift = screen[k, 0, 0] - project(m[t, :1], axis)[0, 0]
+            draw_skeleton(ax, m[t], parents, axis=axis, shift=shift, color=colors[t],
+                          linewidth=1.6 if is_key else 1.2, zorder=3 if is_key else 2)
+        ax.axhline(ymin, color="0.8", linewidth=0.8, zorder=1)
+        ax.set_xlim(xmin - pad, xmax + pad)
+        ax.set_ylim(ymin - pad, ymax + pad)
+        ax.set_aspect("equal", adjustable="box", anchor="W")
+        ax.set_axis_off()
+        if titles is not None and row < len(titles):
+            ax.text(-0.01, 0.5, str(titles[row]), transform=ax.transAxes, fontsize=8, ha="right",
+                    va="center")
+    if title:
+        fig.suptitle(title, fontsize=9, y=1 - 0.05 * title_h / fig_h)
+    return _finish(fig, path)
+
+
+# ----------------------------------------------------------------------------------- trajectories
+
+
+def root_trajectories(trajectories, *, labels: Sequence[str] | None = None, keyframes: Sequence[int] | None = None,
+                      reference=None, figsize=(4.5, 4.5), dpi: int = 100, title: str | None = None,
+                      path=None) -> Figure:
+    """Root trajectories seen from above (x-z plane, z pointing down the page as in a top view).
+
+    trajectories: list of (T, 3) root positions or (T, J, 3) global positions (root = joint 0), or one
+      (S, T, 3) / (S, T, J, 3) array (a single motion goes in a list). keyframes: frame indices marked with black dots (default first
+      and last). reference: optional (T', 3) / (T', J, 3) trajectory drawn dashed in black (e.g. the
+      ground truth).
+    """
+    def roots(x):
+        x = np.asarray(x, dtype=np.float64)
+        return x[:, 0] if x.ndim == 3 else x
+
+    items = list(trajectories)  # an array iterates over its first axis: (S, T, 3) or (S, T, J, 3)
+    paths = [roots(t) for t in items]
+    fig = _new_figure(figsize, dpi)
+    ax = fig.add_subplot(1, 1, 1)
+    colormap = matplotlib.colormaps["tab10"]
+    for i, r in enumerate(paths):
+        label = labels[i] if labels is not None and i < len(labels) else None
+        ax.plot(r[:, 0], r[:, 2], color=colormap(i % 10), linewidth=1.2, label=label)
+        keys = (0, len(r) - 1) if keyframes is None else keyframes
+        key_idx = [int(k) % len(r) for k in keys]
+        ax.plot(r[key_idx, 0], r[key_idx, 2], "o", color=KEYFRAME_COLOR, markersize=4, zorder=3)
+    if reference is not None:
+        r = roots(reference)
+        ax.plot(r[:, 0], r[:, 2], "--", color=KEYFRAME_COLOR, linewidth=1.0, label="reference")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.invert_yaxis()
+    ax.set_xlabel("x")
+    ax.set_ylabel("z")
+    ax.grid(True, linewidth=0.4, alpha=0.5)
+    if labels is not None or reference is not None:
+        ax.legend(fontsize=7, loc="best")
+    if title:
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    return _finish(fig, path)
+
+
+# ---------------------------------------------------------------------------------- error curves
+
+
+def per_frame_error(samples, ground_truth, metres_per_unit: float = 0.01) -> np.ndarray:
+    """Per-frame ADE: mean over joints (and over samples and windows) of the Euclidean distance.
+
+    samples: (..., L, J, 3) global positions (any leading sample / window axes);
+    ground_truth: broadcastable (..., L, J, 3). Returns (L,) in metres (file units x metres_per_unit).
+    """
+    s = np.asarray(samples, dtype=np.float64)
+    g = np.asarray(ground_truth, dtype=np.float64)
+    d = np.linalg.norm(s - g, axis=-1).mean(axis=-1)  # (..., L)
+    return d.reshape(-1, d.shape[-1]).mean(axis=0) * metres_per_unit
+
+
+def error_over_time(errors: Mapping[str, Sequence[float]], *, first_frame: int = 1,
+                    ylabel: str = "ADE (m)", xlabel: str = "frame of the transition",
+                    figsize=(5.0, 3.2), dpi: int = 100, title: str | None = None, path=None) -> Figure:
+    """Per-frame error of several methods along the transition (as the paper's Fig. 4).
+
+    errors: method name -> (L,) errors per generated frame; frames are numbered from ``first_frame``.
+    """
+    if not errors:
+        raise ValueError("error_over_time needs at least one method")
+    fig = _new_figure(figsize, dpi)
+    ax = fig.add_subplot(1, 1, 1)
+    for name, values in errors.items():
+        v = np.asarray(values, dtype=np.float64).ravel()
+        ax.plot(np.arange(first_frame, first_frame + len(v)), v, marker="o", markersize=2.5,
+                linewidth=1.2, label=str(name))
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_ylim(bottom=0)
+    ax.grid(True, linewidth=0.4, alpha=0.5)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    return _finish(fig, path)
+
+
+# -------------------------------------------------------------------------------------- animation
+
+
+def animate(motions, parents, path, *, fps: float = 30.0, keyframes: Sequence[int] | None = None,
+            transition: tuple | None = None, titles: Sequence[str] | None = None, view="auto",
+            spacing: float | None = None, cmap: str = DEFAULT_CMAP, height: float = 2.6,
+            dpi: int = 80):
+    """Write an animated GIF (Pillow writer) of motions playing side by side, one panel each.
+
+    motions: list of (T, J, 3) global positions, same T. The figure at a keyframe is black, during the
+    transition it takes the frame's colour map colour, elsewhere grey. The root's real motion is kept
+    (each panel follows its own character with a fixed camera). Returns the path written.
+    """
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    motions = [np.asarray(m, dtype=np.float64) for m in motions]
+    num_frames = motions[0].shape[0]
+    keyframes = (0, num_frames - 1) if keyframes is None else tuple(int(k) % num_frames for k in keyframes)
+    if transition is None:
+        transition = (min(keyframes), max(keyframes))
+    colors = frame_colors(num_frames, keyframes, transition, cmap)
+    axis = horizontal_axis(motions, view)
+    fig = _new_figure((height * 0.8 * len(motions), height), dpi)
+    axes = fig.subplots(1, len(motions), squeeze=False)[0]
+    ymin = min(float(m[..., 1].min()) for m in motions)
+    ymax = max(float(m[..., 1].max()) for m in motions)
+    artists = []
+    for i, (ax, m) in enumerate(zip(axes, motions)):
+        screen = project(m, axis)
+        _frame_axes(ax, screen[..., 0].min(), screen[..., 0].max(), ymin, ymax)
+        ax.axhline(ymin, color="0.85", linewidth=0.8)
+        lines = draw_skeleton(ax, m[0], parents, axis=axis, color=colors[0], linewidth=1.8)
+        if titles is not None and i < len(titles):
+            ax.set_title(str(titles[i]), fontsize=8)
+        artists.append((screen, lines))
+    counter = fig.text(0.01, 0.01, "", fontsize=7)
+    bones = [(p, j) for j, p in enumerate(parents) if p >= 0]
+    fig.subplots_adjust(left=0.01, right=0.99, bottom=0.05, top=0.9, wspace=0.05)
+
+    def update(t):
+        changed = [counter]
+        for screen, lines in artists:
+            for line, (p, j) in zip(lines, bones):
+                line.set_data(screen[t, [p, j], 0], screen[t, [p, j], 1])
+                line.set_color(colors[t])
+                changed.append(line)
+        counter.set_text(f"frame {t}")
+        return changed
+
+    anim = FuncAnimation(fig, update, frames=num_frames, blit=False)
+    path = pathlib.Path(os.fspath(path))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    anim.save(str(path), writer=PillowWriter(fps=max(1, int(round(fps)))), dpi=dpi)
+    return path

@@ -1,0 +1,274 @@
+"""Bidirectional aligned rollout with stitching (paper section 3, Eq. 2), for one example; vmap for batches.
+
+Frames of a transition of length L (L generated in-betweens): 0 = start keyframe, 1..L generated,
+L + 1 = target keyframe. With h = L // 2 and k = min(K, h) (K = model.stitch_buffer):
+
+- the forward generator makes frames 1 .. h + k (h + k steps), starting from the start keyframe;
+- the backward generator (trained on time-reversed motion) makes frames L .. h - k + 1 (L - h + k steps),
+  starting from the target keyframe;
+- the 2k overlapping frames h - k + 1 .. h + k are blended frame by frame, the backward weight rising
+  linearly (j + 1) / (2k + 1), j = 0..2k-1 (rotations by sign-aligned normalised lerp, root positions and
+  contacts linearly); frames before come from the forward sequence, frames after from the backward one.
+
+One ``lax.scan`` whose body does a forward step, then a backward step (bidirectional aligning):
+f_{i+1} = G_fwd(f_i | target = latest backward frame), then f_{j-1} = G_bwd(f_j | target = f_{i+1}).
+Ablations: ``model.bidirectional_aligning=False`` -> each generator targets the other keyframe;
+``model.bidirectional=False`` -> the forward generator makes all L frames towards the target keyframe.
+
+``length`` is traced: the scan runs over a static maximum (``(max_length + 1) // 2 + K`` steps, or
+``max_length`` forward-only) and every quantity past the length is masked, so the progressive schedule
+never recompiles. Once a generator has made its frames it holds its last frame (what the other one then
+targets). The backward sequence uses its own time direction: its root velocities are reversed-time
+velocities; a backward frame used as the forward generator's target gets its velocity negated.
+Latent interpolation weight for the step that makes the n-th frame of a direction: gamma = n / (L + 1).
+"""
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+
+from stitchjax import features as F
+from stitchjax import networks
+from stitchjax import rotations as R
+from stitchjax import skeleton as skel
+
+__all__ = ["rollout", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule", "GAUSSIAN_KEYS"]
+
+GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend")
+
+
+def num_steps(config, max_length: int) -> int:
+    """Static scan length for transitions of at most ``max_length`` frames."""
+    if config.model.bidirectional:
+        return (max_length + 1) // 2 + config.model.stitch_buffer
+    return max_length
+
+
+def schedule(config, length):
+    """(h, k, n_forward, n_backward) for a (traced) length: split point, buffer, frames per direction."""
+    length = jnp.asarray(length, jnp.int32)
+    if not config.model.bidirectional:
+        return length, jnp.zeros((), jnp.int32), length, jnp.zeros((), jnp.int32)
+    h = length // 2
+    k = jnp.minimum(config.model.stitch_buffer, h)
+    return h, k, h + k, length - h + k
+
+
+def _phase(config, phase_params, state):
+    if not config.model.phase_modulation or phase_params is None:
+        return jnp.zeros(state.shape[:-1] + (networks.phase_dim(config),), state.dtype)
+    from stitchjax import phase as phase_lib
+
+    if config.model.stop_phase_gradient:
+        state = jax.lax.stop_gradient(state)
+    return phase_lib.phase_features(phase_params, state)
+
+
+def _step(params, phase_params, config, carry, current, target, distance, gamma, eps):
+    """One generator step: frame dicts (rotations (J,4), root (3,), velocity (3,), contacts (C,))."""
+    data = config.data
+    state = F.state_vector(current["rotations"], current["velocity"], current["contacts"])
+    target_state = F.state_vector(target["rotations"], target["velocity"], target["contacts"])
+    offset = F.offset_features(current["rotations"], current["root"], target["rotations"], target["root"],
+                               data.position_scale)
+    if config.model.time_to_target_input:
+        offset = jnp.concatenate([offset, (distance / data.fps)[None].astype(offset.dtype)])
+    phase = _phase(config, phase_params, state)
+    carry, out = networks.make_generator(config).apply(params, carry, state, target_state, offset, gamma,
+                                                       phase, eps)
+    update = out["rotation_update"].reshape(current["rotations"].shape)
+    velocity = out["velocity"]
+    frame = {
+        "rotations": R.quat_normalize(current["rotations"] + update),
+        "root": current["root"] + velocity * data.velocity_scale,
+        "velocity": velocity,
+        "contacts": jax.nn.sigmoid(out["contact_logits"]),
+    }
+    return carry, frame, {k: out[k] for k in GAUSSIAN_KEYS}
+
+
+def _reverse(frame):
+    """A frame of one direction seen from the other (time reversed: velocity negated)."""
+    return {**frame, "velocity": -frame["velocity"]}
+
+
+def _hold(valid, new, old):
+    return jax.tree.map(lambda a, b: jnp.where(valid, a, b), new, old)
+
+
+def _take(tree, index):
+    return jax.tree.map(lambda x: jnp.take(x, index, axis=0, mode="clip"), tree)
+
+
+def _stack_first(first, rest):
+    return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b], axis=0), first, rest)
+
+
+def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int):
+    """Generate one transition.
+
+    Args:
+      gen_params: {"forward": ..., "backward": ...} generator params (other keys ignored).
+      phase_params: phase network params (``phase.init_phase_params``), or None for zero phase features.
+      start, target: keyframes, dicts with "rotations" (J, 4) local quats, "root_position" (3,) file
+        units, "contacts" (C,).
+      offsets: (J, 3) bone offsets (the root row is ignored).
+      key: PRNG key for the latent noise.
+      config: Config (static).
+      length: () int, traced: L generated frames, 1 <= L <= max_length (clipped into that range).
+      max_length: static maximum L (training: window - 2).
+    Returns dict (T_out = max_length + 2):
+      "rotations" (T_out, J, 4), "root_positions" (T_out, 3), "contacts" (T_out, C),
+      "global_positions" (T_out, J, 3): the stitched motion, frame 0 = start and frame L + 1 = target
+      exactly, frames past L + 1 repeat the target; "mask" (T_out,) bool, True for frames 0..L+1.
+      "forward": per-step outputs (n = num_steps) of the forward generator, entry i = frame i + 1:
+        "rotations" (n, J, 4), "root_positions" (n, 3), "velocities" (n, 3) scaled, "contacts" (n, C),
+        "global_positions" (n, J, 3), "mask" (n,) bool, and the Gaussians GAUSSIAN_KEYS (n, latent).
+      "backward" (bidirectional only): the same in reversed time, entry i = frame L - i.
+      "overlap": "forward_positions", "backward_positions" (2K', J, 3) FK positions of the two sequences
+        on the overlapping frames (K' = max(K, 1)), "mask" (2K',) bool.
+    """
+    m, data = config.model, config.data
+    parents = tuple(data.parents)
+    dtype = start["rotations"].dtype
+    length = jnp.clip(jnp.asarray(length, jnp.int32), 1, max_length)
+    n = num_steps(config, max_length)
+    h, k, n_fwd, n_bwd = schedule(config, length)
+    bidir = m.bidirectional
+    aligned = m.bidirectional_aligning
+
+    def keyframe(kf):
+        return {"rotations": kf["rotations"], "root": kf["root_position"],
+                "velocity": jnp.zeros((3,), dtype), "contacts": kf["contacts"]}
+
+    start_frame, target_frame = keyframe(start), keyframe(target)
+    eps = jax.random.normal(key, (n, 2, m.latent_dim), dtype)
+    steps = jnp.arange(n, dtype=jnp.int32)
+    total = (length + 1).astype(dtype)
+    carry0 = networks.initial_carry(config, dtype)
+
+    def body(carry, xs):
+        i, eps_i = xs
+        fwd_carry, bwd_carry, fwd, bwd = carry
+        gamma = jnp.clip((i + 1).astype(dtype) / total, 0.0, 1.0)
+        if bidir and aligned:
+            f_target, f_dist = _reverse(bwd), length + 1 - 2 * i
+        else:
+            f_target, f_dist = target_frame, length + 1 - i
+        new_carry, new_fwd, g_fwd = _step(gen_params["forward"], phase_params, config, fwd_carry, fwd,
+                                          f_target, f_dist, gamma, eps_i[0])
+        valid = i < n_fwd
+        fwd_carry, fwd = _hold(valid, (new_carry, new_fwd), (fwd_carry, fwd))
+        out = {"forward": {**fwd, **g_fwd}}
+        if bidir:
+            if aligned:
+                b_target, b_dist = _reverse(fwd), length - 2 * i
+            else:
+                b_target, b_dist = start_frame, length + 1 - i
+            new_carry, new_bwd, g_bwd = _step(gen_params["backward"], phase_params, config, bwd_carry, bwd,
+                                              b_target, b_dist, gamma, eps_i[1])
+            valid = i < n_bwd
+            bwd_carry, bwd = _hold(valid, (new_carry, new_bwd), (bwd_carry, bwd))
+            out["backward"] = {**bwd, **g_bwd}
+        return (fwd_carry, bwd_carry, fwd, bwd), out
+
+    init = (carry0, carry0, start_frame, target_frame)
+    _, seq = jax.lax.scan(body, init, (steps, eps))
+
+    # Sequences including their keyframe at entry 0: fwd_all[t] = frame t, bwd_all[r] = frame L + 1 - r.
+    frame_keys = ("rotations", "root", "velocity", "contacts")
+    fwd_all = _stack_first(start_frame, {key_: seq["forward"][key_] for key_ in frame_keys})
+    if bidir:
+        bwd_all = _stack_first(target_frame, {key_: seq["backward"][key_] for key_ in frame_keys})
+    else:
+        bwd_all = fwd_all
+
+    # Stitch into T_out frames.
+    t_out = max_length + 2
+    t = jnp.arange(t_out, dtype=jnp.int32)
+    from_fwd = _take(fwd_all, t)
+    from_bwd = _take(bwd_all, length + 1 - t)
+    if bidir:
+        w = jnp.clip((t - (h - k)).astype(dtype) / (2 * k + 1).astype(dtype), 0.0, 1.0)
+    else:
+        w = jnp.zeros((t_out,), dtype)
+    q_f, q_b = from_fwd["rotations"], from_bwd["rotations"]
+    sign = jnp.where(jnp.sum(q_f * q_b, axis=-1, keepdims=True) < 0, -1.0, 1.0).astype(dtype)
+    rot = R.quat_normalize((1 - w)[:, None, None] * q_f + w[:, None, None] * sign * q_b)
+    root = (1 - w)[:, None] * from_fwd["root"] + w[:, None] * from_bwd["root"]
+    contacts = (1 - w)[:, None] * from_fwd["contacts"] + w[:, None] * from_bwd["contacts"]
+    is_start, is_target = (t == 0), (t >= length + 1)
+
+    def pin(x, first, last):
+        shape = (t_out,) + (1,) * (x.ndim - 1)
+        return jnp.where(is_start.reshape(shape), first[None], jnp.where(is_target.reshape(shape), last[None], x))
+
+    rot = pin(rot, start["rotations"], target["rotations"])
+    root = pin(root, start["root_position"], target["root_position"])
+    contacts = pin(contacts, start["contacts"], target["contacts"])
+
+    # One FK call for the forward, backward and stitched sequences.
+    all_rot = jnp.concatenate([fwd_all["rotations"], bwd_all["rotations"], rot], axis=0)
+    all_root = jnp.concatenate([fwd_all["root"], bwd_all["root"], root], axis=0)
+    _, all_pos = skel.forward_kinematics(all_rot, F.local_positions(offsets.astype(dtype), all_root), parents)
+    pos_fwd, pos_bwd, pos_stitched = all_pos[:n + 1], all_pos[n + 1:2 * (n + 1)], all_pos[2 * (n + 1):]
+
+    def direction(seq_dir, positions, count):
+        d = {"rotations": seq_dir["rotations"], "root_positions": seq_dir["root"],
+             "velocities": seq_dir["velocity"], "contacts": seq_dir["contacts"],
+             "global_positions": positions[1:], "mask": steps < count}
+        d.update({key_: seq_dir[key_] for key_ in GAUSSIAN_KEYS})
+        return d
+
+    result = {
+        "rotations": rot, "root_positions": root, "contacts": contacts, "global_positions": pos_stitched,
+        "mask": t <= length + 1,
+        "forward": direction(seq["forward"], pos_fwd, n_fwd),
+    }
+    size = 2 * max(m.stitch_buffer, 1)
+    j = jnp.arange(size, dtype=jnp.int32)
+    frames = h - k + 1 + j
+    if bidir:
+        result["backward"] = direction(seq["backward"], pos_bwd, n_bwd)
+        overlap_mask = j < 2 * k
+    else:
+        overlap_mask = jnp.zeros((size,), bool)
+    result["overlap"] = {
+        "forward_positions": jnp.take(pos_fwd, frames, axis=0, mode="clip"),
+        "backward_positions": jnp.take(pos_bwd, length + 1 - frames, axis=0, mode="clip"),
+        "mask": overlap_mask,
+    }
+    return result
+
+
+def keyframes_from_batch(batch: dict, length):
+    """(start, target, offsets) of a batch dict (B, T, ...): start = frame 0, target = frame length + 1."""
+    index = jnp.asarray(length, jnp.int32) + 1
+
+    def at(x, i):
+        return jax.lax.dynamic_index_in_dim(x, i, axis=1, keepdims=False)
+
+    def keyframe(i):
+        return {"rotations": at(batch["rotations"], i), "root_position": at(batch["root_positions"], i),
+                "contacts": at(batch["contacts"], i)}
+
+    return keyframe(0), keyframe(index), batch["offsets"][:, 0]
+
+
+def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, max_length: int | None = None):
+    """:func:`rollout` vmapped over a batch dict (from ``features.prepare_dataset``, leading B).
+
+    Keyframes: frame 0 and frame ``length + 1`` of each window; max_length defaults to T - 2.
+    Per-example noise from ``jax.random.split(key, B)``. Returns rollout's dict with a leading B axis.
+    """
+    num_frames = batch["rotations"].shape[1]
+    max_length = num_frames - 2 if max_length is None else int(max_length)
+    if max_length + 2 > num_frames:
+        raise ValueError(f"max_length={max_length} needs windows of {max_length + 2} frames, batch has {num_frames}")
+    start, target, offsets = keyframes_from_batch(batch, length)
+    keys = jax.random.split(key, batch["rotations"].shape[0])
+    fn = functools.partial(rollout, config=config, max_length=max_length)
+    return jax.vmap(lambda s, t, o, k_: fn(gen_params, phase_params, s, t, o, k_, length=length))(
+        start, target, offsets, keys)

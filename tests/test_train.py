@@ -1,0 +1,193 @@
+"""Training: the jitted step, overfitting, resume, data parallelism, NaN guard, signals, the CLI."""
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from stitchjax import checkpoints, config as config_lib, train
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+FRAMES = 10  # tiny windows: transitions of up to 8 frames
+
+TINY = [
+    "model.encoder_widths=16,16,16", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
+    "model.gating_widths=8,8", "model.disc_widths=16,16", "model.disc_long_window=4", "model.stitch_buffer=2",
+    "train.batch_size=4", "train.min_length=4", "train.max_length=8", "train.log_every=1",
+    "train.checkpoint_every_steps=1", "phase.pretrain_steps=20", "phase.pretrain_batch_size=64",
+]
+
+
+def tiny_config(*extra):
+    return config_lib.apply_overrides(config_lib.load_config("lafan1"), TINY + list(extra))
+
+
+@pytest.fixture(scope="module")
+def dataset():
+    """The bundled sample's training windows cut to FRAMES frames (a few dozen windows)."""
+    data, stats = train.load_training_data(tiny_config(), None)
+    return {name: (x[:24, :FRAMES] if x.shape[1] > 1 else x[:24]) for name, x in data.items()}, stats
+
+
+def _device_data(data, mesh):
+    return train.shard_dataset(data, mesh)
+
+
+def test_schedule_and_buckets():
+    tc = tiny_config("train.min_length=5", "train.max_length=48", "train.epochs_per_length=2").train
+    assert [train.transition_length(s, 10, tc) for s in (0, 19, 20, 39, 40, 10_000)] == [5, 5, 6, 6, 7, 48]
+    assert train.steps_per_epoch(100, 32) == 3
+    assert train.bucket_window(7, tc) is None
+    tb = tiny_config("train.length_buckets=10,30,48").train
+    assert [train.bucket_window(n, tb) for n in (5, 10, 11, 48)] == [12, 12, 32, 50]
+
+
+def test_one_step_changes_every_parameter_group(dataset):
+    data, _ = dataset
+    config = tiny_config()
+    mesh = train.make_mesh()
+    state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
+    before = jax.device_get(state.params)
+    phase_before = jax.device_get(state.phase_params)
+    step = train.make_train_step(config, mesh)
+    state, metrics = step(state, _device_data(data, mesh), jnp.int32(6))
+    metrics = jax.device_get(metrics)
+    assert int(state.step) == 1
+    assert {"loss", "disc_loss", "length"} <= set(metrics) and len(metrics) > 5
+    assert all(np.isfinite(v) for v in metrics.values()), metrics
+    assert int(metrics["length"]) == 6
+    after = jax.device_get(state.params)
+    for group in train.GENERATORS + train.DISCRIMINATORS:
+        changed = [not np.array_equal(a, b) for a, b in zip(jax.tree.leaves(before[group]), jax.tree.leaves(after[group]))]
+        assert any(changed), f"no parameter of {group} changed"
+    for a, b in zip(jax.tree.leaves(phase_before), jax.tree.leaves(jax.device_get(state.phase_params))):
+        np.testing.assert_array_equal(a, b)  # the phase network stays frozen
+
+
+def test_tiny_model_overfits_one_batch(dataset):
+    data, _ = dataset
+    config = tiny_config("train.learning_rate=3e-3", "loss.gen_weight=0.0", "loss.disc_weight=0.0")
+    one_batch = {name: x[:4] for name, x in data.items()}
+    mesh = train.make_mesh()
+    state = train.create_train_state(config, jax.random.PRNGKey(1), None, mesh)
+    step = train.make_train_step(config, mesh)
+    device_data = _device_data(one_batch, mesh)
+    losses = []
+    for _ in range(200):
+        state, metrics = step(state, device_data, jnp.int32(8))
+        losses.append(float(metrics["loss"]))
+    first, last = np.mean(losses[:5]), np.mean(losses[-5:])
+    assert np.isfinite(last) and last < first / 5, (first, last)
+
+
+def _params(workdir):
+    config = tiny_config()
+    manager = checkpoints.open_manager(workdir)
+    state, _, extras = checkpoints.restore(manager, train.abstract_train_state(config))
+    checkpoints.close(manager)
+    return jax.device_get(state), extras
+
+
+def test_resume_equals_one_run_and_writes_report(dataset, tmp_path):
+    data, stats = dataset
+    config = tiny_config()
+    kwargs = dict(dataset=data, stats=stats, progress=False)
+    train.train(config, tmp_path / "split", max_steps=3, **kwargs)
+    summary = train.train(config, tmp_path / "split", max_steps=6, **kwargs)
+    assert summary["start_step"] == 3 and summary["step"] == 6
+    train.train(config, tmp_path / "whole", max_steps=6, **kwargs)
+    split, extras = _params(tmp_path / "split")
+    whole, _ = _params(tmp_path / "whole")
+    assert int(split.step) == int(whole.step) == 6
+    for a, b in zip(jax.tree.leaves(split), jax.tree.leaves(whole)):
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)
+    assert len(extras["stats"]["mean"]) == 66
+    records = [json.loads(line) for line in (tmp_path / "split" / "metrics.jsonl").read_text().splitlines()]
+    assert [r["step"] for r in records] == [1, 2, 3, 4, 5, 6]
+    assert {"loss", "length", "windows_per_s"} <= set(records[-1])
+    assert (tmp_path / "split" / "report.md").read_text().startswith("# Training report")
+    assert (tmp_path / "split" / "loss_curves.png").stat().st_size > 1000
+
+
+def test_nan_guard_names_the_term_and_keeps_last_good_checkpoint(dataset, tmp_path):
+    data, stats = dataset
+    config = tiny_config()
+    real_step = train.make_train_step(config)
+
+    def poisoned_step(state, device_data, length):
+        state, metrics = real_step(state, device_data, length)
+        if int(state.step) == 3:
+            metrics = {**metrics, "kl": jnp.float32(np.nan)}
+        return state, metrics
+
+    with pytest.raises(train.NonFiniteLossError, match=r"'kl' is nan at step 3.*step 2"):
+        train.train(config, tmp_path, max_steps=5, dataset=data, stats=stats, progress=False,
+                    train_step=poisoned_step)
+    assert sorted(int(p.name) for p in checkpoints.checkpoint_dir(tmp_path).iterdir()) == [1, 2]
+
+
+def test_sigterm_saves_current_step_and_stops(dataset, tmp_path):
+    data, stats = dataset
+    config = tiny_config("train.checkpoint_every_steps=100")
+    real_step = train.make_train_step(config)
+
+    def step_then_sigterm(state, device_data, length):
+        state, metrics = real_step(state, device_data, length)
+        if int(state.step) == 2:
+            os.kill(os.getpid(), signal.SIGTERM)
+        return state, metrics
+
+    summary = train.train(config, tmp_path, max_steps=50, dataset=data, stats=stats, progress=False,
+                          train_step=step_then_sigterm)
+    assert summary["stop_reason"] == "SIGTERM received" and summary["step"] == 2
+    assert [p.name for p in checkpoints.checkpoint_dir(tmp_path).iterdir()] == ["2"]
+
+
+DATA_PARALLEL_SCRIPT = """
+import jax, jax.numpy as jnp, numpy as np, sys
+sys.path.insert(0, {repo!r})
+from stitchjax import config as config_lib, train
+assert jax.device_count() == 4, jax.devices()
+config = config_lib.apply_overrides(config_lib.load_config("lafan1"), {tiny!r})
+data, _ = train.load_training_data(config, None)
+data = {{k: (x[:24, :{frames}] if x.shape[1] > 1 else x[:24]) for k, x in data.items()}}
+results = []
+for devices in (jax.devices()[:1], jax.devices()):
+    mesh = train.make_mesh(devices)
+    state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
+    step = train.make_train_step(config, mesh)
+    device_data = train.shard_dataset(data, mesh)
+    for _ in range(2):
+        state, metrics = step(state, device_data, jnp.int32(6))
+    results.append((jax.device_get(state.params), jax.device_get(metrics)))
+(p1, m1), (p4, m4) = results
+for a, b in zip(jax.tree.leaves(p1), jax.tree.leaves(p4)):
+    np.testing.assert_allclose(a, b, rtol=2e-4, atol=2e-5)
+np.testing.assert_allclose(m1["loss"], m4["loss"], rtol=1e-4)
+print("OK", float(m1["loss"]), float(m4["loss"]))
+"""
+
+
+def test_data_parallel_step_matches_single_device():
+    env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=4", "JAX_PLATFORMS": "cpu"}
+    script = DATA_PARALLEL_SCRIPT.format(repo=str(REPO), tiny=TINY, frames=FRAMES)
+    result = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0 and "OK" in result.stdout, result.stderr[-3000:]
+
+
+def test_cli_help_and_bad_arguments(tmp_path):
+    cli = [sys.executable, str(REPO / "bin" / "train")]
+    help_run = subprocess.run(cli + ["--help"], capture_output=True, text=True, timeout=60)
+    assert help_run.returncode == 0 and "--workdir" in help_run.stdout and "--max-steps" in help_run.stdout
+    bad = subprocess.run(cli + ["--config", "no_such_config", "--workdir", str(tmp_path)],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "no config named 'no_such_config'" in bad.stderr
+    bad = subprocess.run(cli + ["--config", "quickstart", "--workdir", str(tmp_path), "model.nope=1"],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "no field 'nope'" in bad.stderr

@@ -1,0 +1,177 @@
+"""Window arithmetic, foot contacts, centring + facing alignment and time reversal (synthetic data)."""
+import numpy as np
+import pytest
+
+from stitchjax import rotations as R
+from stitchjax.skeleton import (LAFAN1_FEET, LAFAN1_PARENTS, forward_kinematics, inverse_kinematics,
+                                lafan1_skeleton)
+from stitchjax.windows import (Windows, center_and_face, center_and_face_global, foot_contacts,
+                               window_indices, window_starts, window_statistics)
+
+J = len(LAFAN1_PARENTS)
+
+
+def random_motion(rng, shape, joints=J):
+    """Random local rotations (shape + (J, 4)) and positions with a wandering root (cm)."""
+    rot = R.quat_normalize(rng.normal(size=shape + (joints, 4)))
+    pos = np.broadcast_to(rng.normal(scale=20.0, size=(joints, 3)), shape + (joints, 3)).copy()
+    pos[..., 0, :] = rng.normal(scale=100.0, size=shape + (3,))
+    return rot, pos
+
+
+@pytest.mark.parametrize("frames, window, offset", [
+    (50, 50, 20), (51, 50, 20), (70, 50, 20), (71, 50, 20), (72, 50, 20), (4918, 50, 20),
+    (5391, 65, 40), (105, 65, 40), (106, 65, 40), (10, 50, 20), (0, 5, 1)])
+def test_window_starts_match_formula(frames, window, offset):
+    starts = window_starts(frames, window, offset)
+    expected = (frames - window - 1) // offset + 1 if frames > window else 0
+    assert len(starts) == expected
+    # Brute force of the official loop: i = 0; while i + window < T: ...; i += offset.
+    brute, i = [], 0
+    while i + window < frames:
+        brute.append(i)
+        i += offset
+    np.testing.assert_array_equal(starts, brute)
+    if len(starts):
+        assert starts[-1] + window < frames  # strict: the last frame of the file is never used
+
+
+def test_window_starts_rejects_bad_arguments():
+    with pytest.raises(ValueError, match="positive"):
+        window_starts(100, 0, 20)
+
+
+def test_window_indices():
+    idx = window_indices(np.array([0, 20]), 3)
+    np.testing.assert_array_equal(idx, [[0, 1, 2], [20, 21, 22]])
+
+
+def test_foot_contacts_stationary_foot():
+    t = 12
+    pos = np.zeros((t, J, 3))
+    pos[:, 3] = [5.0, 0.0, 0.0]  # LeftFoot still for the whole clip
+    pos[:, 4, 0] = np.arange(t) * 1.0  # LeftToe moves 1 cm per frame: 1 cm² > 0.02
+    pos[:, 7, 0] = np.arange(t) * 0.1  # RightFoot moves 0.1 cm per frame: 0.01 cm² < 0.02
+    pos[:6, 8, 2] = np.arange(6) * 0.2  # RightToe: 0.04 cm² for frames 0-4, then still from frame 5
+    pos[6:, 8, 2] = 1.0
+    c = foot_contacts(pos, LAFAN1_FEET)
+    assert c.shape == (t, 4)
+    assert c.dtype == np.float64
+    np.testing.assert_array_equal(c[:, 0], 1.0)
+    np.testing.assert_array_equal(c[:, 1], 0.0)
+    np.testing.assert_array_equal(c[:, 2], 1.0)
+    # |p6 - p5|² = 0, so contact from frame 5 on; frames 0-4 move 0.04 cm² per frame.
+    np.testing.assert_array_equal(c[:, 3], [0, 0, 0, 0, 0] + [1] * 7)
+
+
+def test_foot_contacts_last_frame_repeats_previous():
+    pos = np.zeros((2, 5, 4, J, 3))
+    pos[..., -1, 3, 1] = 10.0  # only the last step moves: frame t-2 sees it, and t-1 repeats t-2
+    c = foot_contacts(pos, LAFAN1_FEET)
+    assert c.shape == (2, 5, 4, 4)
+    np.testing.assert_array_equal(c[..., :2, 0], 1.0)
+    np.testing.assert_array_equal(c[..., 2:, 0], 0.0)
+
+
+def official_center_and_face(rot, pos, parents, frame=9):
+    """The official order written out: centre the root, FK, rotate all globals, IK."""
+    pos = pos.copy()
+    mean = pos[:, :, 0, ::2].mean(axis=1, keepdims=True)
+    pos[:, :, 0, 0] -= mean[..., 0]
+    pos[:, :, 0, 2] -= mean[..., 1]
+    grot, gpos = forward_kinematics(rot, pos, parents)
+    fwd = R.quat_rotate(grot[:, frame:frame + 1, 0:1], np.array([0.0, 1.0, 0.0])) * [1, 0, 1]
+    fwd /= np.linalg.norm(fwd, axis=-1, keepdims=True)
+    yrot = R.quat_between(np.array([1.0, 0.0, 0.0]), fwd)
+    inv = R.quat_conjugate(yrot)
+    return inverse_kinematics(R.quat_mul(inv, grot), R.quat_rotate(inv, gpos), parents)
+
+
+def test_center_and_face_centres_and_faces_plus_x():
+    rng = np.random.default_rng(0)
+    rot, pos = random_motion(rng, (7, 30))
+    rot2, pos2 = center_and_face(rot, pos, LAFAN1_PARENTS, frame=9)
+    grot, gpos = forward_kinematics(rot2, pos2, LAFAN1_PARENTS)
+    np.testing.assert_allclose(pos2[:, :, 0, [0, 2]].mean(axis=1), 0.0, atol=1e-9)
+    fwd = R.quat_rotate(grot[:, 9, 0], np.array([0.0, 1.0, 0.0]))
+    fwd[:, 1] = 0
+    fwd /= np.linalg.norm(fwd, axis=-1, keepdims=True)
+    np.testing.assert_allclose(fwd, np.tile([1.0, 0.0, 0.0], (7, 1)), atol=1e-6)
+    # Heights are untouched and the pose itself (relative to the root) is unchanged.
+    np.testing.assert_allclose(pos2[..., 0, 1], pos[..., 0, 1])
+    np.testing.assert_array_equal(rot2[..., 1:, :], rot[..., 1:, :])
+    np.testing.assert_array_equal(pos2[..., 1:, :], pos[..., 1:, :])
+    # The window's own shape is preserved: pairwise joint distances are the same.
+    _, graw = forward_kinematics(rot, pos, LAFAN1_PARENTS)
+    d_raw = np.linalg.norm(graw[:, :, :, None] - graw[:, :, None], axis=-1)
+    d_new = np.linalg.norm(gpos[:, :, :, None] - gpos[:, :, None], axis=-1)
+    np.testing.assert_allclose(d_new, d_raw, atol=1e-9)
+
+
+def test_center_and_face_equals_official_fk_rotate_ik():
+    rng = np.random.default_rng(1)
+    rot, pos = random_motion(rng, (5, 20))
+    rot2, pos2 = center_and_face(rot, pos, LAFAN1_PARENTS)
+    rot_ref, pos_ref = official_center_and_face(rot, pos, LAFAN1_PARENTS)
+    np.testing.assert_allclose(rot2, rot_ref, atol=1e-12)
+    np.testing.assert_allclose(pos2, pos_ref, atol=1e-10)
+    # IK/FK consistency of the aligned windows, and the FK-free global positions agree with FK.
+    grot, gpos = forward_kinematics(rot2, pos2, LAFAN1_PARENTS)
+    lrot, lpos = inverse_kinematics(grot, gpos, LAFAN1_PARENTS)
+    np.testing.assert_allclose(lrot, rot2, atol=1e-12)
+    np.testing.assert_allclose(lpos, pos2, atol=1e-10)
+    _, graw = forward_kinematics(rot, pos, LAFAN1_PARENTS)
+    np.testing.assert_allclose(center_and_face_global(graw, pos[..., 0, :], rot[..., 0, :]), gpos,
+                               atol=1e-10)
+
+
+def test_center_and_face_facing_opposite_plus_x():
+    # Root's local +Y pointing along -X at frame 9: the half turn about +Y, not a degenerate quaternion.
+    rot = np.zeros((1, 12, J, 4))
+    rot[..., 0] = 1.0
+    rot[:, :, 0] = R.quat_from_axis_angle(np.array([0.0, 0.0, 1.0]), np.array(np.pi / 2))
+    pos = np.zeros((1, 12, J, 3))
+    pos[..., 1:, 1] = 10.0
+    rot2, pos2 = center_and_face(rot, pos, LAFAN1_PARENTS)
+    fwd = R.quat_rotate(rot2[0, 9, 0], np.array([0.0, 1.0, 0.0]))
+    np.testing.assert_allclose(fwd, [1.0, 0.0, 0.0], atol=1e-9)
+    assert np.all(np.isfinite(rot2))
+
+
+def make_windows(rng, n=3, t=8):
+    rot, pos = random_motion(rng, (n, t))
+    contacts = (rng.random((n, t, 4)) < 0.5).astype(float)
+    skeleton = lafan1_skeleton(pos[0, 0])
+    return Windows(rot, pos, contacts, skeleton, 30.0, [f"clip:{i}" for i in range(n)])
+
+
+def test_reversed_twice_is_identity_and_reverses_time():
+    w = make_windows(np.random.default_rng(2))
+    r = w.reversed()
+    np.testing.assert_array_equal(r.rotations[:, 0], w.rotations[:, -1])
+    np.testing.assert_array_equal(r.contacts[:, 0], w.contacts[:, -1])
+    np.testing.assert_array_equal(r.global_positions()[:, 0], w.global_positions()[:, -1])
+    rr = r.reversed()
+    for name in ("rotations", "positions", "contacts"):
+        np.testing.assert_array_equal(getattr(rr, name), getattr(w, name))
+    assert rr.sources == w.sources
+
+
+def test_windows_indexing_and_validation():
+    w = make_windows(np.random.default_rng(3), n=4)
+    sub = w[[1, 3]]
+    assert len(sub) == 2 and sub.sources == ["clip:1", "clip:3"]
+    np.testing.assert_array_equal(sub.positions, w.positions[[1, 3]])
+    assert len(w[2]) == 1
+    with pytest.raises(ValueError, match="sources"):
+        Windows(w.rotations, w.positions, w.contacts, w.skeleton, 30.0, ["a"])
+
+
+def test_window_statistics_match_direct_computation():
+    w = make_windows(np.random.default_rng(4), n=5, t=6)
+    stats = window_statistics(w)
+    g = w.global_positions().reshape(-1, J * 3)
+    np.testing.assert_allclose(stats.mean, g.mean(axis=0), rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(stats.std, g.std(axis=0), rtol=1e-12)
+    np.testing.assert_array_equal(stats.offsets[1:], w.positions[0, 0, 1:])
+    np.testing.assert_array_equal(stats.offsets[0], 0.0)
