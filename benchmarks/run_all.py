@@ -156,8 +156,8 @@ def synthetic_dataset(config, num_windows: int, num_frames: int, seed: int = 0) 
     heading = rng.uniform(0, 2 * np.pi, (num_windows, 1))
     speed = rng.uniform(0.5, 3.0, (num_windows, 1))
     steps = np.arange(num_frames)[None, :]
-    root = np.stack([np.cos(heading) * speed * steps, 90 + 2 * np.sin(steps / 5.0) + 0 * steps,
-                     np.sin(heading) * speed * steps], axis=-1)
+    bob = 90 + 2 * np.sin(steps / 5.0) + 0 * heading
+    root = np.stack([np.cos(heading) * speed * steps, bob, np.sin(heading) * speed * steps], axis=-1)
     root -= root.mean(axis=1, keepdims=True) * np.array([1, 0, 1])
     bone = rng.normal(0, 1, (joints, 3))
     bone = bone / np.linalg.norm(bone, axis=-1, keepdims=True) * rng.uniform(8, 40, (joints, 1))

@@ -29,7 +29,7 @@ import numpy as np
 from stitchjax import rotations as R
 from stitchjax.skeleton import Skeleton, forward_kinematics
 
-__all__ = ["BVHError", "Motion", "load", "save", "LAFAN1_CHANNELS"]
+__all__ = ["BVHError", "Motion", "load", "save", "ROOT_CHANNELS", "JOINT_CHANNELS"]
 
 _POSITION_CHANNELS = {"xposition": 0, "yposition": 1, "zposition": 2}
 _ROTATION_CHANNELS = {"xrotation": "x", "yrotation": "y", "zrotation": "z"}
@@ -139,7 +139,10 @@ def _read_text(path: pathlib.Path) -> str:
             raise BVHError(f"{path}: corrupt gzip data ({e})") from None
     if data[:3] == b"\xef\xbb\xbf":  # UTF-8 byte order mark
         data = data[3:]
-    return data.decode("latin-1")
+    text = data.decode("latin-1")
+    if "\n" not in text:  # classic Mac line endings (CR only)
+        text = text.replace("\r", "\n")
+    return text
 
 
 class _Tokens:
@@ -346,7 +349,7 @@ def load(path) -> Motion:
     rest = rest[1:] if rest.startswith("\n") else rest
     parts = rest.split("\n", 2)
     num_frames_f = _header_value(path, parts, 0, "Frames", motion_line + 1)
-    if num_frames_f != int(num_frames_f) or num_frames_f < 0:
+    if not (0 <= num_frames_f < 2**40 and num_frames_f == int(num_frames_f)):
         raise BVHError(f"{path}, line {motion_line + 1}: 'Frames:' must be a whole number, "
                        f"found {num_frames_f:g}")
     num_frames = int(num_frames_f)
@@ -359,10 +362,9 @@ def load(path) -> Motion:
     num_channels = sum(len(c) for c in channels)
 
     if num_channels == 0 or num_frames == 0:
-        values = np.zeros((0, num_channels))
-        if body.strip() and num_channels:
+        if num_channels and body.strip():
             raise _find_bad_line(path, body, first_line, num_channels, num_frames)
-        values = np.zeros((num_frames, num_channels)) if num_channels == 0 else values
+        values = np.zeros((num_frames, num_channels))
     else:
         try:
             values = np.loadtxt(io.StringIO(body), dtype=np.float64, ndmin=2, comments=None)
@@ -500,7 +502,9 @@ def save(path, motion: Motion) -> None:
     """Write ``motion`` as BVH (gzip-compressed when ``path`` ends in ``.gz``).
 
     Rotations are written as Euler angles in degrees in each joint's channel order, values with six
-    decimals; the hierarchy keeps the joint names, offsets, channel layout and End Sites.
+    decimals; the hierarchy keeps the joint names, offsets, channel layout and End Sites. A joint's
+    local position is written only through its position channels: joints without them get their
+    skeleton OFFSET. Angles are written in (-180, 180] degrees (not unwrapped over time).
     """
     path = pathlib.Path(os.fspath(path))
     skeleton = motion.skeleton

@@ -235,8 +235,9 @@ def evaluate_protocol(
     windows: test windows (N, T, J, ...), centred and facing-aligned; stats: anything with
         ``mean`` and ``std`` (J*3,) of training global positions (for L2P).
     For each L in ``lengths``: start keyframe = ``start``, target keyframe = start + L + 1, the L
-    generated frames start+1 .. start+L are scored. Foot slide is measured over start .. target
-    (keyframes included) above the window's ground (lowest ground-truth foot height in the window).
+    generated frames start+1 .. start+L are scored. Foot slide: for every generated frame, the
+    displacement to the next frame (the last one's is to the target keyframe), weighted by the
+    height above the window's ground (lowest ground-truth foot height in the whole window).
     Returns {"n_windows", "samples", "lengths": {"L": {name: {metric: value}, "ground_truth":
     {"foot_slide": value}}}, "units": {...}}; see ``_units`` for the units of each metric.
     """
@@ -274,7 +275,7 @@ def evaluate_protocol(
             ground = ground_all[chunk]
             _, power = metrics.npss_parts(gt_q, gt_q)
             npss_power += float(power.sum())
-            weighted, count = metrics.foot_slide_parts(gt_pos_all[chunk, start : target + 1], ground, **slide_kw)
+            weighted, count = metrics.foot_slide_parts(gt_pos_all[chunk, start + 1 : target + 1], ground, **slide_kw)
             gt_slide += float(weighted.sum())
             gt_slide_count += float(count.sum())
             chunk_windows = windows[chunk]
@@ -298,14 +299,8 @@ def evaluate_protocol(
                 acc.sums["npss"] += float(metrics.npss_parts(q, gt_q)[0].sum())
                 acc.sums["l2p"] += float(metrics.l2p_per_window(p, gt_p, mean, std).sum())
                 acc.sums["l2q"] += float(metrics.l2q_per_window(q, gt_q).sum())
-                full = np.concatenate(
-                    [
-                        np.broadcast_to(gt_pos_all[chunk, start][None, :, None], p[:, :, :1].shape),
-                        p,
-                        np.broadcast_to(gt_pos_all[chunk, target][None, :, None], p[:, :, :1].shape),
-                    ],
-                    axis=2,
-                )
+                target_pose = gt_pos_all[chunk, target][None, :, None]  # (1, b, 1, J, 3)
+                full = np.concatenate([p, np.broadcast_to(target_pose, p[:, :, :1].shape)], axis=2)
                 weighted, count = metrics.foot_slide_parts(full, ground, **slide_kw)
                 acc.sums["slide"] += float(weighted.sum())
                 acc.sums["slide_count"] += float(count.sum())

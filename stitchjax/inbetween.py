@@ -200,12 +200,14 @@ def stitch_losses(result: dict) -> jax.Array:
 
 
 @functools.lru_cache(maxsize=32)
-def _compiled_sampler(config, length: int, num_candidates: int, num_keep: int):
+def _compiled_sampler(config, length: int, num_candidates: int):
     """jit of (params, phase_params, start, target, offsets, key) -> model-frame transitions.
 
     start / target: dicts of (B, ...) keyframes as ``rollout.rollout`` wants them; offsets (B, J, 3).
-    Every window gets ``num_candidates`` rollouts; the ``num_keep`` with the lowest stitching loss are
-    returned (all of them, in sampling order, when num_keep == num_candidates).
+    Every window gets ``num_candidates`` rollouts (keys: split(key, B), then split(window key,
+    num_candidates)), so the first candidates do not depend on how many are drawn. Compiled once per
+    (config, length, num_candidates) and batch size; the latent-pair search picks among the candidates
+    outside, so plain sampling and search share compilations.
     """
     from stitchjax import rollout as rollout_lib
 
@@ -217,16 +219,11 @@ def _compiled_sampler(config, length: int, num_candidates: int, num_keep: int):
 
     def window(params, phase_params, start, target, offsets, key):
         keys = jax.random.split(key, num_candidates)
-        outs = jax.vmap(one, in_axes=(None, None, None, None, None, 0))(
+        return jax.vmap(one, in_axes=(None, None, None, None, None, 0))(
             params, phase_params, start, target, offsets, keys)
-        if num_keep < num_candidates:
-            _, best = jax.lax.top_k(-outs["stitch_loss"], num_keep)  # lowest losses, increasing
-            outs = jax.tree.map(lambda x: x[best], outs)
-        return outs
 
     def batch(params, phase_params, start, target, offsets, key):
-        count = offsets.shape[0]
-        keys = jax.random.split(key, count)
+        keys = jax.random.split(key, offsets.shape[0])
         return jax.vmap(window, in_axes=(None, None, 0, 0, 0, 0))(params, phase_params, start, target, offsets,
                                                                    keys)
 
@@ -260,14 +257,21 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
       and facing-aligned; offsets: (B, J, 3) bone offsets (root row ignored).
     Returns numpy float32 {"rotations" (B, S, L+2, J, 4), "root_positions" (B, S, L+2, 3), "contacts"
       (B, S, L+2, C), "global_positions" (B, S, L+2, J, 3), "stitch_loss" (B, S)}, S = num_samples.
+    With ``search=M`` the M x S candidates of a window are drawn with the same keys as plain sampling
+    of M x S samples, and the S with the lowest stitching loss are returned in increasing order.
     """
     _check_request(model, length, num_samples, search, warn=True)
     candidates = num_samples * max(int(search), 1)
-    fn = _compiled_sampler(model.config, int(length), int(candidates), int(num_samples))
+    fn = _compiled_sampler(model.config, int(length), int(candidates))
     as32 = functools.partial(jnp.asarray, dtype=jnp.float32)
     out = fn(model.params, model.phase_params, jax.tree.map(as32, start), jax.tree.map(as32, target),
              as32(offsets), _as_key(seed))
-    return jax.tree.map(np.asarray, out)
+    out = jax.tree.map(np.asarray, out)
+    if candidates > num_samples:  # latent-pair search: the lowest stitching losses, increasing
+        best = np.argsort(out["stitch_loss"], axis=1, kind="stable")[:, :num_samples]  # (B, S)
+        out = {k: np.take_along_axis(v, best.reshape(best.shape + (1,) * (v.ndim - 2)), axis=1)
+               for k, v in out.items()}
+    return out
 
 
 # ----------------------------------------------------------------------------- alignment and contacts

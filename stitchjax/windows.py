@@ -217,18 +217,18 @@ def foot_contacts(global_positions, feet, threshold: float = CONTACT_THRESHOLD) 
     return contacts_from_displacement(d, threshold).astype(p.dtype if p.dtype.kind == "f" else np.float64)
 
 
-def facing_rotation(root_global_rotation):
+def facing_rotation(root_global_rotation, forward_axis=(0.0, 1.0, 0.0)):
     """Rotation about +Y that takes the horizontal forward direction of ``root_global_rotation``
-    (..., 4) (its local +Y axis, y zeroed) onto +X. Returns (..., 4) unit quaternions.
+    (..., 4) (its local ``forward_axis``, y zeroed) onto +X. Returns (..., 4) unit quaternions.
+    ``forward_axis`` is the root's local axis that points forward: +Y for LAFAN1's Hips.
 
     Built as in the official code: ``yrot = between(+X, forward)`` and the window is then rotated by
     ``yrot⁻¹``; returned here is ``yrot⁻¹``. A forward direction opposite to +X (where the shortest
     arc is undefined) gives the half turn about +Y.
     """
     q = np.asarray(root_global_rotation)
-    up = np.zeros(q.shape[:-1] + (3,), dtype=q.dtype)
-    up[..., 1] = 1.0
-    forward = R.quat_rotate(q, up) * np.array([1.0, 0.0, 1.0], dtype=q.dtype)
+    axis = np.broadcast_to(np.asarray(forward_axis, dtype=q.dtype), q.shape[:-1] + (3,))
+    forward = R.quat_rotate(q, axis) * np.array([1.0, 0.0, 1.0], dtype=q.dtype)
     forward = forward / (np.sqrt(np.sum(forward * forward, axis=-1, keepdims=True)) + 1e-8)
     x_axis = np.zeros_like(forward)
     x_axis[..., 0] = 1.0
@@ -241,7 +241,8 @@ def facing_rotation(root_global_rotation):
     return R.quat_conjugate(yrot)
 
 
-def center_and_face(rotations, positions, parents, frame: int = FACING_FRAME):
+def center_and_face(rotations, positions, parents, frame: int = FACING_FRAME,
+                    forward_axis=(0.0, 1.0, 0.0)):
     """Centre each window on the ground plane and turn it to face +X at ``frame``.
 
     Args:
@@ -249,6 +250,7 @@ def center_and_face(rotations, positions, parents, frame: int = FACING_FRAME):
         units); the leading axes are windows.
       parents: parent index per joint (root first; only the root is changed).
       frame: the frame whose root orientation defines "forward" (9 for LAFAN1: the last context frame).
+      forward_axis: the root's local axis that points forward (LAFAN1 Hips: +Y).
     Returns:
       (rotations, positions): aligned local transforms, same shapes (new arrays).
 
@@ -273,13 +275,14 @@ def center_and_face(rotations, positions, parents, frame: int = FACING_FRAME):
     mean_xz = np.mean(root[..., :, [0, 2]], axis=-2, keepdims=True)  # (..., 1, 2)
     root[..., :, 0] -= mean_xz[..., 0]
     root[..., :, 2] -= mean_xz[..., 1]
-    turn = facing_rotation(rotations[..., frame, 0, :])[..., None, :]  # (..., 1, 4)
+    turn = facing_rotation(rotations[..., frame, 0, :], forward_axis)[..., None, :]  # (..., 1, 4)
     rotations[..., :, 0, :] = R.quat_mul(turn, rotations[..., :, 0, :])
     positions[..., :, 0, :] = R.quat_rotate(turn, root)
     return rotations, positions
 
 
-def center_and_face_global(global_positions, root_positions, root_rotations, frame: int = FACING_FRAME):
+def center_and_face_global(global_positions, root_positions, root_rotations, frame: int = FACING_FRAME,
+                           forward_axis=(0.0, 1.0, 0.0)):
     """The aligned global positions of windows, from their raw ones, without FK.
 
     ``global_positions`` (..., T, J, 3) raw FK positions, ``root_positions`` (..., T, 3) and
@@ -287,7 +290,7 @@ def center_and_face_global(global_positions, root_positions, root_rotations, fra
     windows have after :func:`center_and_face` (translate by minus the root's mean x/z, then turn).
     """
     mean_xz = np.mean(root_positions[..., :, [0, 2]], axis=-2)  # (..., 2)
-    turn = R.quat_to_matrix(facing_rotation(root_rotations[..., frame, :]))  # (..., 3, 3) about +Y
+    turn = R.quat_to_matrix(facing_rotation(root_rotations[..., frame, :], forward_axis))  # about +Y
     m = turn[..., None, None, :, :]
     x = global_positions[..., 0] - mean_xz[..., None, None, 0]
     y = global_positions[..., 1]

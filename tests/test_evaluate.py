@@ -1,0 +1,164 @@
+"""Official benchmark, paper protocol and bin/evaluate, on the bundled LAFAN1 excerpt."""
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from stitchjax import evaluate, lafan1
+from stitchjax.sample import sample_dir
+from stitchjax.skeleton import forward_kinematics
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+METRICS = set(evaluate.METRIC_KEYS)
+
+
+@pytest.fixture(scope="module")
+def sample():
+    """(training Stats, subject5 test Windows) of the bundled excerpt."""
+    return lafan1.train_statistics(sample_dir()), lafan1.test_windows(sample_dir())
+
+
+def _ground_truth_method(windows, start, length, num_samples, seed):
+    frames = slice(start + 1, start + 1 + length)
+    return windows.rotations[None, :, frames], windows.positions[None, :, frames]
+
+
+def _noisy_method(windows, start, length, num_samples, seed):
+    """Ground truth with a random root offset (cm) per sample: known, seed-dependent diversity."""
+    rng = np.random.default_rng(seed)
+    r, p = _ground_truth_method(windows, start, length, num_samples, seed)
+    p = np.repeat(p, num_samples, axis=0).copy()
+    p[:, :, :, 0, :] += rng.normal(size=(num_samples, p.shape[1], 1, 3)) * 5.0
+    return np.repeat(r, num_samples, axis=0), p
+
+
+def test_benchmark_schema_and_baseline_ordering(sample):
+    stats, windows = sample
+    results = evaluate.benchmark_baselines(stats, windows)
+    assert results["n_windows"] == windows.num_windows
+    for name in ("zerov", "interp"):
+        assert set(results[name]) == {"l2q", "l2p", "npss"}
+        for values in results[name].values():
+            assert list(values) == ["5", "15", "30", "45"]
+            assert all(np.isfinite(v) and v > 0 for v in values.values())
+    for n in ("15", "30", "45"):
+        assert results["zerov"]["l2p"][n] > results["interp"]["l2p"][n]
+        assert results["zerov"]["l2q"][n] > results["interp"]["l2q"][n]
+    table = evaluate.format_benchmark_table(results)
+    assert "Global pos losses" in table and f"{results['interp']['l2p']['30']:6.4f}" in table
+
+
+def test_protocol_interp_matches_the_benchmark(sample):
+    stats, windows = sample
+    bench = evaluate.benchmark_baselines(stats, windows, lengths=(15, 30))
+    proto = evaluate.evaluate_protocol(
+        evaluate.BASELINE_METHODS, windows, stats, lengths=(15, 30), samples=3, batch_size=7, progress=False
+    )
+    for n in ("15", "30"):
+        for name in ("interp", "zerov"):
+            for key in ("l2p", "l2q", "npss"):
+                # the benchmark uses the training bone offsets, the protocol each window's own (1e-5 cm apart)
+                assert proto["lengths"][n][name][key] == pytest.approx(bench[name][key][n], rel=1e-6)
+
+
+def test_protocol_schema_and_perfect_method(sample):
+    stats, windows = sample
+    methods = {"model": _ground_truth_method, **evaluate.BASELINE_METHODS}
+    out = evaluate.evaluate_protocol(methods, windows[:6], stats, lengths=(10, 50), samples=2, progress=False)
+    assert out["n_windows"] == 6 and out["samples"] == 2
+    assert set(out["units"]) >= METRICS and out["units"]["ade"] == "m"
+    assert list(out["lengths"]) == ["10", "50"]
+    for entry in out["lengths"].values():
+        assert set(entry) == {"model", "interp", "zerov", "ground_truth"}
+        for name in ("model", "interp", "zerov"):
+            assert set(entry[name]) == METRICS
+        model = entry["model"]
+        for key in ("apd", "ade", "ade_best", "slde", "npss", "l2p", "l2q"):
+            assert model[key] == pytest.approx(0.0, abs=1e-9)
+        assert model["foot_slide"] == pytest.approx(entry["ground_truth"]["foot_slide"])
+        assert entry["zerov"]["ade"] > entry["interp"]["ade"] > 0
+        assert entry["interp"]["apd"] == 0.0
+    json.dumps(out)  # plain JSON types
+
+
+def test_protocol_diversity_and_best_of_n(sample):
+    stats, windows = sample
+    out = evaluate.evaluate_protocol({"noisy": _noisy_method}, windows[:5], stats, lengths=(10,),
+                                     samples=4, batch_size=2, progress=False)
+    noisy = out["lengths"]["10"]["noisy"]
+    # a rigid root offset of N(0, 5 cm) per axis: ADE = E|offset| ~ 8 cm, APD > 0, best < mean
+    assert 0.02 < noisy["ade"] < 0.2 and noisy["apd"] > 0.02
+    assert noisy["ade_best"] < noisy["ade"]
+    assert noisy["slde"] == pytest.approx(noisy["ade"])  # same offset on every frame
+
+
+def test_baseline_methods_hold_and_reach_the_keyframes(sample):
+    _, windows = sample
+    w = windows[:3]
+    start, length = 9, 12
+    r, p = evaluate.zero_velocity_method(w, start, length, 5, 0)
+    assert r.shape == (1, 3, length, 22, 4) and p.shape == (1, 3, length, 22, 3)
+    np.testing.assert_array_equal(r[0, :, -1], w.rotations[:, start])
+    np.testing.assert_array_equal(p[0, :, 0], w.positions[:, start])
+    r, p = evaluate.interpolation_method(w, start, length, 5, 0)
+    target = start + length + 1
+    step = (w.positions[:, target, 0] - w.positions[:, start, 0]) / (length + 1)
+    np.testing.assert_allclose(p[0, :, 0, 0], w.positions[:, start, 0] + step)
+    np.testing.assert_allclose(p[0, :, -1, 0], w.positions[:, target, 0] - step)
+    # FK of the interpolated frames stays between the keyframes' root heights
+    _, gpos = forward_kinematics(r[0], p[0], w.skeleton.parents)
+    assert np.all(np.isfinite(gpos))
+
+
+def test_protocol_rejects_bad_lengths_and_bad_method_output(sample):
+    stats, windows = sample
+    with pytest.raises(ValueError, match="needs windows of at least"):
+        evaluate.evaluate_protocol(evaluate.BASELINE_METHODS, windows[:2], stats, lengths=(60,), progress=False)
+
+    def wrong(windows, start, length, num_samples, seed):
+        return np.zeros((1, 2, length + 1, 22, 4)), np.zeros((1, 2, length + 1, 22, 3))
+
+    with pytest.raises(ValueError, match="method 'wrong' returned"):
+        evaluate.evaluate_protocol({"wrong": wrong}, windows[:2], stats, lengths=(10,), progress=False)
+
+
+def _run_cli(*args):
+    env = dict(os.environ, PYTHONPATH="")  # the script must find the package by itself
+    return subprocess.run([sys.executable, str(REPO / "bin" / "evaluate"), *args], capture_output=True,
+                          text=True, env=env, cwd=str(REPO.parent), timeout=300)
+
+
+def test_cli_baselines_writes_the_schema(tmp_path):
+    out = tmp_path / "baselines.json"
+    proc = _run_cli("baselines", "--data", str(sample_dir()), "--json", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert "Global pos losses" in proc.stdout
+    results = json.loads(out.read_text())
+    assert results["n_windows"] > 0
+    assert set(results) == {"n_windows", "zerov", "interp"}
+    assert set(results["interp"]["npss"]) == {"5", "15", "30", "45"}
+
+
+def test_cli_reports_a_folder_without_test_subject_in_one_line(tmp_path):
+    for f in sample_dir().glob("*_subject1.bvh.gz"):
+        (tmp_path / f.name).symlink_to(f)
+    proc = _run_cli("baselines", "--data", str(tmp_path))
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+    error_lines = [line for line in proc.stderr.splitlines() if "error" in line]
+    assert len(error_lines) == 1 and "subject5" in error_lines[0]
+
+
+def test_cli_model_baselines_only(tmp_path):
+    out = tmp_path / "protocol.json"
+    proc = _run_cli("model", "--baselines-only", "--data", str(sample_dir()), "--samples", "2",
+                    "--lengths", "10,30", "--json", str(out))
+    assert proc.returncode == 0, proc.stderr
+    results = json.loads(out.read_text())
+    assert results["samples"] == 2 and list(results["lengths"]) == ["10", "30"]
+    assert set(results["lengths"]["30"]) == {"interp", "zerov", "ground_truth"}
+    assert set(results["lengths"]["30"]["interp"]) == METRICS
