@@ -238,6 +238,9 @@ def evaluate_protocol(
     generated frames start+1 .. start+L are scored. Foot slide: for every generated frame, the
     displacement to the next frame (the last one's is to the target keyframe), weighted by the
     height above the window's ground (lowest ground-truth foot height in the whole window).
+    With S samples per window, ADE, SLDE, NPSS, L2P and L2Q are averaged over samples, ADE best
+    keeps the best sample of each window, APD averages the sample pairs of each window and foot
+    slide pools all samples. A method returning one sample is deterministic (APD 0).
     Returns {"n_windows", "samples", "lengths": {"L": {name: {metric: value}, "ground_truth":
     {"foot_slide": value}}}, "units": {...}}; see ``_units`` for the units of each metric.
     """

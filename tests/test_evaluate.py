@@ -109,7 +109,7 @@ def test_baseline_methods_hold_and_reach_the_keyframes(sample):
     step = (w.positions[:, target, 0] - w.positions[:, start, 0]) / (length + 1)
     np.testing.assert_allclose(p[0, :, 0, 0], w.positions[:, start, 0] + step)
     np.testing.assert_allclose(p[0, :, -1, 0], w.positions[:, target, 0] - step)
-    # FK of the interpolated frames stays between the keyframes' root heights
+    # the interpolated poses are valid input for forward kinematics
     _, gpos = forward_kinematics(r[0], p[0], w.skeleton.parents)
     assert np.all(np.isfinite(gpos))
 
