@@ -554,7 +554,8 @@ def check_equal_loss(config, params, phase_params, batch_np: dict, length: int, 
     twin = Twin(config)
     twin.load_flax(params, phase_params)
     batch_t = batch_to_torch(batch_np, np.arange(batch_np["rotations"].shape[0]))
-    eps = torch.from_numpy(jax_noise(key, batch_np["rotations"].shape[0], config, batch_np["rotations"].shape[1] - 2))
+    eps = torch.from_numpy(np.array(jax_noise(key, batch_np["rotations"].shape[0], config,
+                                              batch_np["rotations"].shape[1] - 2)))
     with torch.no_grad():
         t_total, t_terms, fake = twin.generator_loss(batch_t, length, eps)
         t_disc = twin.discriminator_loss(batch_t, fake)

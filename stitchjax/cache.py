@@ -4,9 +4,10 @@ An entry is one ``.npz`` file (uncompressed, no pickles) named by a key that has
 
 - a format version (:data:`FORMAT_VERSION`, bumped whenever the preprocessing changes),
 - what is being computed (``kind``) and its parameters,
-- the name and the full *content* (blake2b of the bytes) of every input file.
+- the name and the full *content* (blake2b of the bytes) of every input file,
+- the source code of the modules that compute the entry (``code``: module names).
 
-So a changed input file can never be served stale, whatever its size or modification time. Entries
+So a changed input file (or a changed reader) can never be served stale, whatever its size or modification time. Entries
 are written atomically (temporary file in the same folder, then ``os.replace``), so a crash or a
 concurrent writer never leaves a half-written entry under a valid name; an unreadable entry is
 treated as a miss and rewritten.
@@ -61,14 +62,25 @@ def file_digest(path) -> str:
     return h.hexdigest()
 
 
-def cache_key(kind: str, files=(), params=None) -> str:
-    """Key of an entry: ``kind`` + hash of (format version, params, file names and contents).
+def _source_digest(module: str) -> str:
+    """blake2b of a module's source file (found without importing the module itself)."""
+    import importlib.util
+    spec = importlib.util.find_spec(module)
+    if spec is None or not spec.origin or not os.path.isfile(spec.origin):
+        return "missing"
+    return file_digest(spec.origin)
+
+
+def cache_key(kind: str, files=(), params=None, code=()) -> str:
+    """Key of an entry: ``kind`` + hash of (format version, params, file names and contents, and
+    the source of the ``code`` modules, e.g. ``("stitchjax.bvh", "stitchjax.windows")``).
 
     ``params`` must be JSON-serialisable (numbers, strings, lists, dicts); files are hashed in the
     order given (callers pass them sorted).
     """
     h = hashlib.blake2b(digest_size=20)
-    header = {"format": FORMAT_VERSION, "kind": kind, "params": params or {}}
+    header = {"format": FORMAT_VERSION, "kind": kind, "params": params or {},
+              "code": {m: _source_digest(m) for m in code}}
     h.update(json.dumps(header, sort_keys=True, default=str).encode())
     for path in files:
         path = pathlib.Path(path)
@@ -120,8 +132,9 @@ def save(cache_dir, key: str, arrays: dict) -> None:
                 pass
 
 
-def cached(kind: str, files, params, compute, cache_dir=None) -> dict:
-    """``compute()`` -> dict of arrays, memoised on disk under :func:`cache_key` (kind, files, params).
+def cached(kind: str, files, params, compute, cache_dir=None, code=()) -> dict:
+    """``compute()`` -> dict of arrays, memoised on disk under :func:`cache_key` (kind, files,
+    params, code).
 
     ``cache_dir`` as in :func:`resolve_cache_dir`. Returns the stored arrays on a hit, otherwise
     computes, stores and returns them (the stored and returned arrays are identical).
@@ -129,7 +142,7 @@ def cached(kind: str, files, params, compute, cache_dir=None) -> dict:
     folder = resolve_cache_dir(cache_dir)
     if folder is None:
         return {k: np.asarray(v) for k, v in compute().items()}
-    key = cache_key(kind, files, params)
+    key = cache_key(kind, files, params, code)
     hit = load(folder, key)
     if hit is not None:
         return hit

@@ -16,7 +16,7 @@ What this module produces, and the choices made (each checked on the shared data
   the first: ``R_t = R(d_t) R_{t-1}`` and ``T_t = T_{t-1} + R_{t-1}^T d_t`` (row convention) — in
   quaternions ``q_t = q_{t-1} * conj(quat(d_t))``, ``T_t = T_{t-1} + rotate(q_{t-1}, d_t)``.
 - **Up axis: +Y, ground at y = 0.** Since the root starts at the identity, the reconstructed
-  motion lives in the frame of the first frame's pelvis, which is up to ~25° off the vertical (the
+  motion lives in the frame of the first frame's pelvis, which is up to ~22° off the vertical (the
   files' trajectories tilt by ~70 cm over a walk). Each file is therefore levelled: the ground
   plane is fitted (least squares) through the lowest foot joint of every frame, and the whole
   motion is rotated (a proper rotation, no axis swap) so that the plane's normal is +Y and shifted
@@ -56,7 +56,8 @@ from stitchjax.windows import (FACING_FRAME, Stats, Windows, center_and_face, ce
                                stats_from_moments, window_indices, window_starts)
 
 __all__ = [
-    "H36MNotFoundError", "H36M_SKELETON", "H36M_FEET", "TRAIN_SUBJECTS", "TEST_SUBJECTS", "FPS",
+    "H36MNotFoundError", "H36M_SKELETON", "H36M_FEET", "FEET", "JOINT_NAMES", "PARENTS",
+    "FORWARD_AXIS", "TRAIN_SUBJECTS", "TEST_SUBJECTS", "FPS",
     "list_files", "read_file", "load_windows", "train_statistics", "test_windows",
 ]
 
@@ -96,6 +97,13 @@ H36M_SKELETON = Skeleton(
     offsets=_OFFSETS_32_MM[list(KEPT_JOINTS)] / 10.0)  # centimetres
 # LeftFoot, LeftToeBase, RightFoot, RightToeBase (original joints 8, 9, 3, 4).
 H36M_FEET = tuple(_NEW_INDEX[j] for j in (8, 9, 3, 4))
+# Short aliases (what configs and other modules look up).
+FEET = H36M_FEET
+JOINT_NAMES = H36M_SKELETON.names
+PARENTS = H36M_SKELETON.parents
+
+
+_CODE = ("stitchjax.rotations", "stitchjax.skeleton", "stitchjax.windows", "stitchjax.h36m")
 
 
 class H36MNotFoundError(FileNotFoundError):
@@ -228,7 +236,7 @@ def load_windows(data_dir, subjects=TRAIN_SUBJECTS, window: int = 50, offset: in
     params = {"window": int(window), "offset": int(offset), "frame": FACING_FRAME,
               "subjects": list(subjects), "names": [f"{p.parent.name}/{p.name}" for p in files]}
     arrays = cache.cached("h36m-windows", files, params, lambda: _build(files, window, offset),
-                          cache_dir)
+                          cache_dir, _CODE)
     return Windows(arrays["rotations"], arrays["positions"], arrays["contacts"], H36M_SKELETON, FPS,
                    arrays["sources"].tolist())
 
@@ -239,7 +247,7 @@ def test_windows(data_dir, window: int = 65, offset: int = 40, cache_dir=None) -
     return load_windows(data_dir, TEST_SUBJECTS, window, offset, cache_dir)
 
 
-test_windows.__test__ = False  # not a pytest test
+test_windows.__test__ = False  # a data loader, not a pytest test
 
 
 def train_statistics(data_dir, subjects=TRAIN_SUBJECTS, window: int = 50, offset: int = 20,
@@ -258,4 +266,4 @@ def train_statistics(data_dir, subjects=TRAIN_SUBJECTS, window: int = 50, offset
             total = combine_moments(total, r["moments"])
         return dataclasses.asdict(stats_from_moments(total, kept[0]["first_local_positions"]))
 
-    return Stats(**cache.cached("h36m-stats", files, params, compute, cache_dir))
+    return Stats(**cache.cached("h36m-stats", files, params, compute, cache_dir, _CODE))

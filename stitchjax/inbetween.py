@@ -49,7 +49,7 @@ from stitchjax.windows import CONTACT_THRESHOLD, center_and_face, facing_rotatio
 __all__ = [
     "InbetweenError", "Model", "load_model", "random_model", "inbetween", "inbetween_clip",
     "sample_transitions", "transitions_in_frame", "keyframe_contacts", "model_method",
-    "evaluation_method", "stitch_losses",
+    "evaluation_method", "stitch_losses", "noise_shape", "window_keyframes", "rollout_details",
 ]
 
 CONTACT_HEIGHT = 4.0  # file units (cm): single-frame contact guess, see keyframe_contacts
@@ -483,3 +483,108 @@ def model_method(model, search: int = 0):
 def evaluation_method(checkpoint, search: int = 0):
     """What ``bin/evaluate model --checkpoint DIR`` calls: :func:`model_method` of the checkpoint."""
     return model_method(load_model(checkpoint), search=search)
+
+
+# ----------------------------------------------------------------------------- latent-space exploration
+
+
+def noise_shape(model: Model, length: int) -> tuple:
+    """Shape (n, 2, latent_dim) of the standard-normal noise one rollout of ``length`` frames draws:
+    n scan steps, [forward, backward] generator, latent size."""
+    from stitchjax import rollout as rollout_lib
+
+    return (rollout_lib.num_steps(model.config, int(length)), 2, int(model.config.model.latent_dim))
+
+
+class _NoiseRandom:
+    """``jax.random`` whose ``normal`` returns given noise (see :func:`_rollout_with_noise`)."""
+
+    def __init__(self, noise):
+        self._noise = noise
+
+    def normal(self, key, shape, dtype=jnp.float32):
+        if tuple(shape) != tuple(self._noise.shape):
+            raise ValueError(f"noise has shape {self._noise.shape}, the rollout draws {tuple(shape)}")
+        return self._noise.astype(dtype)
+
+    def __getattr__(self, name):
+        return getattr(jax.random, name)
+
+
+class _NoiseJax:
+    def __init__(self, noise):
+        self.random = _NoiseRandom(noise)
+
+    def __getattr__(self, name):
+        return getattr(jax, name)
+
+
+def _rollout_with_noise(params, phase_params, start, target, offsets, noise, config, length):
+    """``rollout.rollout`` with its latent noise (n, 2, latent) given instead of drawn from a key.
+
+    rollout draws its noise with one ``jax.random.normal(key, (n, 2, latent))`` call; while this
+    function traces it, that call returns ``noise``. (Once rollout takes the noise as an argument,
+    that is used instead.)
+    """
+    import inspect
+
+    from stitchjax import rollout as rollout_lib
+
+    if "noise" in inspect.signature(rollout_lib.rollout).parameters:
+        return rollout_lib.rollout(params, phase_params, start, target, offsets, jax.random.PRNGKey(0), config,
+                                   length, length, noise=noise)
+    saved = rollout_lib.jax
+    rollout_lib.jax = _NoiseJax(noise)
+    try:
+        return rollout_lib.rollout(params, phase_params, start, target, offsets, jax.random.PRNGKey(0), config,
+                                   length, length)
+    finally:
+        rollout_lib.jax = saved
+
+
+@functools.lru_cache(maxsize=16)
+def _compiled_details(config, length: int):
+    def one(params, phase_params, start, target, offsets, noise):
+        out = _rollout_with_noise(params, phase_params, start, target, offsets, noise, config, length)
+        out["stitch_loss"] = stitch_losses(out)
+        return out
+
+    per_window = jax.vmap(one, in_axes=(None, None, None, None, None, 0))  # samples
+    return jax.jit(jax.vmap(per_window, in_axes=(None, None, 0, 0, 0, 0)))  # windows
+
+
+def window_keyframes(model: Model, windows, start: int, length: int) -> tuple:
+    """Keyframes of B windows in the model's frame: (start, target, offsets) as ``sample_transitions``
+    takes them; target = frame start + length + 1; contacts from ``windows.contacts``."""
+    _check_skeleton(model, windows.skeleton)
+    target = start + length + 1
+    if not 0 <= start < target < windows.rotations.shape[1]:
+        raise InbetweenError(f"keyframes {start} and {target} are outside windows of {windows.rotations.shape[1]} frames")
+    rot, pos = np.asarray(windows.rotations, np.float64), np.asarray(windows.positions, np.float64)
+    aligned_rot, aligned_pos, _, _ = _alignment(rot[:, start], pos[:, start], rot[:, target], pos[:, target],
+                                                model.parents)
+    contacts = np.asarray(windows.contacts, np.float64)
+    start_kf = {"rotations": aligned_rot[:, 0], "root_position": aligned_pos[:, 0, 0], "contacts": contacts[:, start]}
+    target_kf = {"rotations": aligned_rot[:, 1], "root_position": aligned_pos[:, 1, 0],
+                 "contacts": contacts[:, target]}
+    return start_kf, target_kf, pos[:, start]
+
+
+def rollout_details(model: Model, start: dict, target: dict, offsets, length: int, noise) -> dict:
+    """Full rollouts (model frame) of B keyframe pairs with given latent noise, for exploring the latent space.
+
+    start, target, offsets: as from :func:`window_keyframes` (leading B); noise: (B, S, n, 2, latent)
+    standard-normal draws (``noise_shape``), e.g. interpolations between two draws. Returns numpy
+    ``rollout.rollout`` dicts with leading (B, S): the stitched motion, the forward and backward
+    generators' per-step outputs including their Gaussians ("mu", "mu_target", "mu_blend", ...) and
+    "stitch_loss" (B, S). Compiled once per (length, B, S).
+    """
+    _check_request(model, length, 1, 0, warn=True)
+    noise = jnp.asarray(noise, jnp.float32)
+    expected = noise_shape(model, length)
+    if noise.ndim != 5 or noise.shape[2:] != expected:
+        raise InbetweenError(f"noise must be (B, S) + {expected} for length {length}, got {noise.shape}")
+    as32 = functools.partial(jnp.asarray, dtype=jnp.float32)
+    out = _compiled_details(model.config, int(length))(
+        model.params, model.phase_params, jax.tree.map(as32, start), jax.tree.map(as32, target), as32(offsets), noise)
+    return jax.tree.map(np.asarray, out)

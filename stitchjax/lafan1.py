@@ -35,6 +35,9 @@ TEST_SUBJECTS = ("subject5",)
 TRAIN_WINDOW, TRAIN_OFFSET = 50, 20
 TEST_WINDOW, TEST_OFFSET = 65, 40
 _NAME = re.compile(r"^(?P<action>[A-Za-z0-9]+)_(?P<subject>subject\d+)\.bvh(?P<gz>\.gz)?$")
+# Modules whose source is part of the cache key: editing any of them rebuilds the cached arrays.
+_CODE = ("stitchjax.rotations", "stitchjax.skeleton", "stitchjax.bvh", "stitchjax.windows",
+         "stitchjax.lafan1")
 _DOWNLOAD = ("get the release (lafan1.zip) from https://github.com/ubisoft/ubisoft-laforge-"
              "animation-dataset and unpack it into a folder, then pass that folder")
 
@@ -240,7 +243,8 @@ def load_windows(data_dir, subjects, window: int, offset: int, cache_dir=None) -
     params = {"window": int(window), "offset": int(offset), "frame": FACING_FRAME,
               "feet": list(LAFAN1_FEET)}
     arrays = cache.cached("lafan1-windows", files, params,
-                          lambda: _windows_to_arrays(build_windows(files, window, offset)), cache_dir)
+                          lambda: _windows_to_arrays(build_windows(files, window, offset)), cache_dir,
+                          _CODE)
     return _arrays_to_windows(arrays)
 
 
@@ -252,15 +256,17 @@ def train_statistics(data_dir, subjects=TRAIN_SUBJECTS, window: int = TRAIN_WIND
     population std, (J*3,) = (66,) in joint-major order (joint j, axis a at 3*j + a), cm.
     ``offsets`` (J, 3): the local positions in the first frame of the first training window (files
     in name order); row 0 (the root) is zero, since the root's local position is its trajectory.
+    (The official code takes the first window in ``os.listdir`` order; LAFAN1's offsets agree
+    across files to ~1e-5 cm, so the choice does not matter.)
     """
     subjects = (subjects,) if isinstance(subjects, str) else tuple(subjects)
-    files = _files_for(data_dir, subjects, "The training statistics (subjects 1-4)")
+    files = _files_for(data_dir, subjects, f"The training statistics ({', '.join(subjects)})")
     params = {"window": int(window), "offset": int(offset), "frame": FACING_FRAME}
 
     def compute():
         return dataclasses.asdict(build_statistics(files, window, offset))
 
-    arrays = cache.cached("lafan1-stats", files, params, compute, cache_dir)
+    arrays = cache.cached("lafan1-stats", files, params, compute, cache_dir, _CODE)
     return Stats(**arrays)
 
 
@@ -269,3 +275,6 @@ def test_windows(data_dir, cache_dir=None) -> Windows:
     the full release). Raises :class:`LAFAN1NotFoundError` when the folder has no subject5 file."""
     _files_for(data_dir, TEST_SUBJECTS, "The benchmark test set")
     return load_windows(data_dir, TEST_SUBJECTS, TEST_WINDOW, TEST_OFFSET, cache_dir)
+
+
+test_windows.__test__ = False  # a data loader, not a pytest test

@@ -8,16 +8,25 @@ give finite values and finite gradients).
 """
 from __future__ import annotations
 
+import sys
+
 import numpy as np
-import jax
-import jax.numpy as jnp
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 
 
 def _xp(*arrays):
-    """The array module for the inputs: jax.numpy if any of them is a JAX array or tracer."""
-    return jnp if any(isinstance(a, jax.Array) for a in arrays) else np
+    """The array module for the inputs: jax.numpy if any of them is a JAX array or tracer.
+
+    JAX is not imported here: data-only processes (BVH parsing, statistics) never pay for it, and an
+    input can only be a JAX array if the caller already imported jax.
+    """
+    jax = sys.modules.get("jax")
+    if jax is not None and any(isinstance(a, jax.Array) for a in arrays):
+        import jax.numpy as jnp
+
+        return jnp
+    return np
 
 
 def _split(q):
@@ -151,10 +160,7 @@ def matrix_to_quat(m):
     )
     pivots = xp.stack([trace, m00, m11, m22], axis=-1)
     best = xp.argmax(pivots, axis=-1)
-    if xp is np:
-        q = np.take_along_axis(cands, best[..., None, None], axis=-2)[..., 0, :]
-    else:
-        q = jnp.take_along_axis(cands, best[..., None, None], axis=-2)[..., 0, :]
+    q = xp.take_along_axis(cands, best[..., None, None], axis=-2)[..., 0, :]
     q = quat_normalize(q)
     return xp.where(q[..., :1] < 0, -q, q)
 

@@ -124,6 +124,8 @@ def forward_kinematics(local_rotations, local_positions, parents):
     """
     parents = tuple(parents)
     xp = R._xp(local_rotations, local_positions)
+    if xp is np:
+        return _forward_kinematics_numpy(local_rotations, local_positions, parents)
     n = len(parents)
     lr = [local_rotations[..., j, :] for j in range(n)]
     lp = [local_positions[..., j, :] for j in range(n)]
@@ -139,6 +141,23 @@ def forward_kinematics(local_rotations, local_positions, parents):
             grot[j] = rot[..., i, :]
             gpos[j] = pos[..., i, :]
     return xp.stack(grot, axis=-2), xp.stack(gpos, axis=-2)
+
+
+def _forward_kinematics_numpy(local_rotations, local_positions, parents):
+    """NumPy FK writing into preallocated arrays (the data pipeline's float64 path)."""
+    local_rotations = np.asarray(local_rotations)
+    local_positions = np.asarray(local_positions)
+    shape = np.broadcast_shapes(local_rotations.shape[:-1], local_positions.shape[:-1])
+    dtype = np.result_type(local_rotations, local_positions)
+    grot = np.empty(shape + (4,), dtype)
+    gpos = np.empty(shape + (3,), dtype)
+    grot[..., 0, :] = local_rotations[..., 0, :]
+    gpos[..., 0, :] = local_positions[..., 0, :]
+    for j in range(1, len(parents)):
+        p = parents[j]
+        grot[..., j, :] = R.quat_mul(grot[..., p, :], local_rotations[..., j, :])
+        gpos[..., j, :] = R.quat_rotate(grot[..., p, :], local_positions[..., j, :]) + gpos[..., p, :]
+    return grot, gpos
 
 
 def inverse_kinematics(global_rotations, global_positions, parents):

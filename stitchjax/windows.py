@@ -12,6 +12,12 @@ The facts reproduced here are those of the official LAFAN1 benchmark code (DESIG
   the whole window is rotated about the vertical axis through the origin so that forward becomes +X;
   local transforms are recovered by inverse kinematics.
 
+One deliberate difference: the official code normalises the facing quaternion as ``q / (|q| + 1e-8)``,
+which leaves it short of unit length by ~1e-8/|q| (and so scales the rotated window very slightly).
+Here the facing rotation is exactly unit. Measured on the 3 shared subject5 files: windows agree to
+1e-12 with the official arithmetic without that epsilon, and to 0.014 cm (worst joint, worst
+window) with it; the interpolation baseline's L2P differs by < 1e-6 at n = 5, 15, 30, 45.
+
 Everything works on numpy float64 arrays with leading window axis N and is vectorised over windows
 (no Python loop over windows or frames).
 """
@@ -104,7 +110,7 @@ class Windows:
 
     def reversed(self) -> "Windows":
         """The same windows played backwards in time (frames and contacts reversed), for training
-        the backward generator. ``w.reversed().reversed()`` equals ``w``."""
+        the backward generator; ``sources`` are unchanged. ``w.reversed().reversed()`` equals ``w``."""
         return dataclasses.replace(
             self, rotations=self.rotations[:, ::-1].copy(), positions=self.positions[:, ::-1].copy(),
             contacts=self.contacts[:, ::-1].copy())

@@ -8,6 +8,11 @@ os.environ.setdefault(
     str(pathlib.Path(__file__).resolve().parent.parent / ".cache" / "jax"),
 )
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.5")
+# Preprocessed datasets go to the repository's own cache folder, not the user's home.
+os.environ.setdefault(
+    "STITCHJAX_CACHE_DIR",
+    str(pathlib.Path(__file__).resolve().parent.parent / ".cache" / "stitchjax"),
+)
 
 import pytest  # noqa: E402
 

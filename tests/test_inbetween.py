@@ -114,7 +114,7 @@ def test_result_follows_the_keyframes_when_the_world_turns(model, take):
     moved = take[95:115]
     rot, pos = moved.rotations.copy(), moved.positions.copy()
     rot[:, 0] = R.quat_mul(np.broadcast_to(turn, rot[:, 0].shape), rot[:, 0])
-    pos[:, 0] = R.quat_rotate(np.broadcast_to(turn, pos[:, 0].shape), pos[:, 0]) + shift
+    pos[:, 0] = R.quat_rotate(np.broadcast_to(turn, rot[:, 0].shape), pos[:, 0]) + shift
     moved = moved.with_frames(rot, pos)
     a = inbetween.inbetween(model, take[99:101], take[110:112], LENGTH, CANDIDATES, seed=3)
     b = inbetween.inbetween(model, moved[4:6], moved[15:17], LENGTH, CANDIDATES, seed=3)

@@ -9,7 +9,7 @@ import pytest
 
 from stitchjax import bvh, cache, lafan1
 from stitchjax.sample import sample_dir
-from stitchjax.skeleton import LAFAN1_FEET, LAFAN1_PARENTS, forward_kinematics
+from stitchjax.skeleton import LAFAN1_FEET, LAFAN1_PARENTS
 from stitchjax.windows import foot_contacts, window_starts, window_statistics
 
 
@@ -199,3 +199,23 @@ def test_shared_test_set_counts(shared_data, tmp_path):
     assert per_file_counts(w) == expected
     assert len(w) == 376  # the 3 subject5 files here; 2232 on the full release
     assert_aligned(w)
+
+
+def test_cache_key_depends_on_params_content_and_code(tmp_path):
+    a = tmp_path / "a.bvh"
+    a.write_bytes(b"one")
+    key = cache.cache_key("k", [a], {"window": 50})
+    assert cache.cache_key("k", [a], {"window": 50}) == key
+    assert cache.cache_key("k", [a], {"window": 65}) != key
+    assert cache.cache_key("other", [a], {"window": 50}) != key
+    assert cache.cache_key("k", [a], {"window": 50}, code=("stitchjax.windows",)) != key
+    a.write_bytes(b"two")
+    assert cache.cache_key("k", [a], {"window": 50}) != key
+
+
+def test_plain_bvh_is_preferred_over_gz_and_other_files_ignored(tmp_path):
+    shutil.copy(sample_dir() / "walk4_subject1.bvh.gz", tmp_path)
+    (tmp_path / "walk4_subject1.bvh").write_text("x")
+    (tmp_path / "notes.txt").write_text("x")
+    (tmp_path / "walk4.bvh").write_text("x")  # no subject in the name
+    assert lafan1.list_files(tmp_path) == {"subject1": [tmp_path / "walk4_subject1.bvh"]}

@@ -1,0 +1,143 @@
+"""Losses: elementary terms, the generator / discriminator objectives and their gradients."""
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from stitchjax import config as C
+from stitchjax import features as F
+from stitchjax import losses as LS
+from stitchjax import networks as N
+from stitchjax import skeleton as S
+
+TINY = ["model.encoder_widths=16,16,8", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
+        "model.gating_widths=8", "model.disc_widths=16,8", "model.stitch_buffer=2"]
+B, T, J = 2, 12, 22
+
+
+def synthetic_batch(seed=0):
+    rng = np.random.default_rng(seed)
+    q = rng.normal(size=(B, T, J, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    root = np.cumsum(rng.normal(size=(B, T, 3)) * 3.0, axis=1)
+    offsets = rng.normal(size=(B, 1, J, 3)) * 10.0
+    _, gpos = S.forward_kinematics(q, F.local_positions(offsets, root), S.LAFAN1_PARENTS)
+    arrays = {"rotations": q, "root_positions": root, "contacts": rng.integers(0, 2, (B, T, 4)),
+              "offsets": offsets, "global_positions": gpos, "phase": rng.normal(size=(B, T, 8))}
+    return {k: jnp.asarray(v, jnp.float32) for k, v in arrays.items()}
+
+
+def test_stitching_loss_zero_for_identical_positive_otherwise():
+    pos = jax.random.normal(jax.random.PRNGKey(0), (3, 4, J, 3))
+    mask = jnp.ones((3, 4), bool)
+    assert float(LS.stitching_loss(pos, pos, mask)) == 0.0
+    other = pos.at[:, 1].add(0.5)
+    assert float(LS.stitching_loss(pos, other, mask)) > 0
+    # only masked-in frames count: per frame sum |.| = J*3*0.5, averaged over 4 frames
+    np.testing.assert_allclose(LS.stitching_loss(pos, other, mask), J * 3 * 0.5 / 4, rtol=1e-5)
+    assert float(LS.stitching_loss(pos, other, mask.at[:, 1].set(False))) == 0.0
+    assert float(LS.stitching_loss(pos, other, jnp.zeros((3, 4), bool))) == 0.0
+
+
+def test_elementary_terms():
+    x = {"rotations": jnp.ones((2, 5, J, 4)), "velocities": jnp.ones((2, 5, 3)), "contacts": jnp.ones((2, 5, 4))}
+    mask = jnp.ones((2, 5), bool)
+    total, parts = LS.state_loss(x, x, mask, C.LossConfig())
+    assert float(total) == 0.0
+    y = {**x, "contacts": jnp.zeros((2, 5, 4))}
+    total, parts = LS.state_loss(y, x, mask, C.LossConfig())
+    np.testing.assert_allclose(total, 0.1 * 4)  # beta3 * sum over 4 contact channels
+    assert float(LS.kl_loss(jnp.zeros((2, 4)), jnp.zeros((2, 4)), jnp.ones(2, bool))) == 0.0
+    assert float(LS.kl_loss(jnp.ones((2, 4)), jnp.zeros((2, 4)), jnp.ones(2, bool))) == pytest.approx(2.0)
+    assert float(LS.lsgan_generator_loss(jnp.ones((2, 3)), jnp.ones((2, 3), bool))) == 0.0
+    assert float(LS.lsgan_discriminator_loss(jnp.ones((2, 3)), jnp.zeros((2, 3)), jnp.ones((2, 3), bool))) == 0.0
+    assert float(LS.masked_mean(jnp.array([1.0, 3.0, 100.0]), jnp.array([True, True, False]))) == 2.0
+
+
+@pytest.fixture(scope="module")
+def setup():
+    from stitchjax import phase
+
+    config = C.apply_overrides(C.Config(), TINY)
+    params = N.init_params(config, jax.random.PRNGKey(0))
+    phase_params = phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config), config)
+    return config, params, phase_params, synthetic_batch()
+
+
+def _train_step(config):
+    """Both objectives and their gradients, the way the train step uses them (one rollout)."""
+
+    def step(params, phase_params, batch, key, length):
+        gens = {k: params[k] for k in ("forward", "backward")}
+        discs = {k: params[k] for k in ("disc_short", "disc_long")}
+
+        def gen_objective(g):
+            total, terms, generated = LS.generator_loss({**g, **discs}, phase_params, batch, key, config, length)
+            return total, (terms, generated)
+
+        (g_total, (terms, generated)), g_grads = jax.value_and_grad(gen_objective, has_aux=True)(gens)
+
+        def disc_objective(d):
+            return LS.discriminator_loss({**gens, **d}, phase_params, batch, key, config, length, generated)
+
+        (d_total, d_terms), d_grads = jax.value_and_grad(disc_objective, has_aux=True)(discs)
+        return g_total, terms, g_grads, d_total, d_terms, d_grads
+
+    return jax.jit(step)
+
+
+def test_generator_and_discriminator_losses_finite_gradients(setup):
+    config, params, phase_params, batch = setup
+    step = _train_step(config)
+    for length in (3, 10):
+        g_total, terms, g_grads, d_total, d_terms, d_grads = step(params, phase_params, batch,
+                                                                  jax.random.PRNGKey(1), jnp.int32(length))
+        for name in ("state", "kl", "fk", "stitch", "adv_g", "adv_g_short", "adv_g_long", "rotation",
+                     "velocity", "contact", "state_forward", "state_backward"):
+            assert name in terms and bool(jnp.isfinite(terms[name])), name
+        lc = config.loss
+        want = (terms["state"] + lc.kl_weight * terms["kl"] + lc.stitch_weight * terms["stitch"]
+                + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"])
+        np.testing.assert_allclose(g_total, want, rtol=1e-5)
+        assert float(terms["stitch"]) > 0
+        np.testing.assert_allclose(d_total, lc.disc_weight * d_terms["adv_d"], rtol=1e-6)
+        leaves = jax.tree.leaves((g_grads, d_grads))
+        assert all(bool(jnp.isfinite(x).all()) for x in leaves)
+        assert any(float(jnp.abs(x).max()) > 0 for x in jax.tree.leaves(g_grads["backward"]))
+        assert any(float(jnp.abs(x).max()) > 0 for x in jax.tree.leaves(d_grads["disc_long"]))
+    assert float(terms["adv_g_long"]) > 0  # length 10: 12-frame motion holds 10-frame windows
+
+
+def test_discriminator_loss_runs_its_own_rollout_when_not_given_one(setup):
+    config, params, phase_params, batch = setup
+    total, terms = jax.jit(lambda p, pp, b, k, n: LS.discriminator_loss(p, pp, b, k, config, n))(
+        params, phase_params, batch, jax.random.PRNGKey(1), jnp.int32(5))
+    assert bool(jnp.isfinite(total)) and float(total) > 0
+
+
+def test_prepare_dataset_on_synthetic_windows():
+    from stitchjax.windows import Windows
+
+    config = C.Config()
+    rng = np.random.default_rng(0)
+    n, t = 2, 40
+    q = rng.normal(size=(n, t, J, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    offsets = rng.normal(size=(J, 3)) * 10
+    positions = np.broadcast_to(offsets, (n, t, J, 3)).copy()
+    positions[:, :, 0] = rng.normal(size=(n, t, 3)) * 50
+    contacts = (rng.random((n, t, 4)) > 0.5).astype(np.float64)
+    skeleton = S.lafan1_skeleton(offsets)
+    windows = Windows(q, positions, contacts, skeleton, 30.0, [f"clip:{i}" for i in range(n)])
+    data = F.prepare_dataset(windows, None, config)
+    assert data["rotations"].shape == (n, t, J, 4) and data["root_positions"].shape == (n, t, 3)
+    assert data["contacts"].shape == (n, t, 4) and data["phase"].shape == (n, t, 8)
+    assert data["offsets"].shape == (n, 1, J, 3) and data["global_positions"].shape == (n, t, J, 3)
+    assert all(v.dtype == np.float32 for v in data.values())
+    _, gpos = S.forward_kinematics(q, positions, S.LAFAN1_PARENTS)
+    np.testing.assert_allclose(data["global_positions"], gpos, rtol=1e-4, atol=1e-3)
+    states = F.dataset_states(data, config)
+    assert states.shape == (n, t, F.state_dim(config))
+    bad = C.apply_overrides(config, ["data.parents=-1,0,1"])
+    with pytest.raises(F.DatasetError, match="parents"):
+        F.prepare_dataset(windows, None, bad)

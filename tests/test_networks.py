@@ -1,0 +1,86 @@
+"""Networks: shapes, the expert blend, latent interpolation, ablation structure."""
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from stitchjax import config as C
+from stitchjax import networks as N
+
+TINY = ["model.encoder_widths=16,16,8", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
+        "model.gating_widths=8", "model.disc_widths=16,8", "model.stitch_buffer=2"]
+
+
+def tiny_config(*extra):
+    return C.apply_overrides(C.Config(), TINY + list(extra))
+
+
+def test_init_params_and_generator_shapes():
+    config = tiny_config()
+    params = N.init_params(config, jax.random.PRNGKey(0))
+    assert set(params) == {"forward", "backward", "disc_short", "disc_long"}
+    kernel = params["forward"]["params"]["current_head"]["kernel"]
+    assert not np.allclose(kernel, params["backward"]["params"]["current_head"]["kernel"])  # independent
+    dims = N.generator_input_dims(config)
+    assert dims["state"] == 22 * 4 + 7 and dims["offset"] == 22 * 4 + 3 + 1 and dims["phase"] == 8
+    b = 3
+    inputs = [jnp.ones((b, dims[k])) for k in ("state", "target", "offset")]
+    carry = jax.tree.map(lambda x: jnp.zeros((b,) + x.shape), N.initial_carry(config))
+    apply = jax.vmap(N.make_generator(config).apply, in_axes=(None, 0, 0, 0, 0, 0, 0, 0))
+    new_carry, out = apply(params["forward"], carry, *inputs, jnp.full((b,), 0.5), jnp.ones((b, 8)), jnp.ones((b, 4)))
+    assert new_carry[0].shape == (b, 16) and new_carry[1].shape == (b, 16)
+    assert out["velocity"].shape == (b, 3) and out["rotation_update"].shape == (b, 88)
+    assert out["contact_logits"].shape == (b, 4)
+    for key in ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend"):
+        assert out[key].shape == (b, 4)
+    # eval_shape-friendly init gives the same structure
+    abstract = jax.eval_shape(lambda k: N.init_params(config, k), jax.random.PRNGKey(0))
+    assert jax.tree.structure(abstract) == jax.tree.structure(params)
+
+
+def test_discriminator_scores_one_per_window_position():
+    config = tiny_config()
+    params = N.init_params(config, jax.random.PRNGKey(0))
+    feats = jnp.ones((2, 12, N.disc_feature_dim(config)))
+    short = N.make_discriminator(config, "disc_short").apply(params["disc_short"], feats)
+    long = N.make_discriminator(config, "disc_long").apply(params["disc_long"], feats)
+    assert short.shape == (2, 11) and long.shape == (2, 3)
+
+
+def test_moe_einsum_equals_blended_weights():
+    layer = N.MoEDense(features=5, num_experts=4)
+    x = jax.random.normal(jax.random.PRNGKey(1), (3, 6))
+    coefficients = jax.nn.softmax(jax.random.normal(jax.random.PRNGKey(2), (3, 4)))
+    params = layer.init(jax.random.PRNGKey(0), x, coefficients)
+    params = jax.tree.map(lambda p: p + 0.1 * jax.random.normal(jax.random.PRNGKey(3), p.shape), params)
+    got = layer.apply(params, x, coefficients)
+    kernel, bias = params["params"]["kernel"], params["params"]["bias"]
+    explicit = []
+    for i in range(3):
+        w = sum(coefficients[i, e] * kernel[e] for e in range(4))
+        bb = sum(coefficients[i, e] * bias[e] for e in range(4))
+        explicit.append(x[i] @ w + bb)
+    np.testing.assert_allclose(got, np.stack(explicit), rtol=1e-5, atol=1e-5)
+
+
+def test_blend_gaussians_endpoints_and_modes():
+    mu, logvar = jnp.array([1.0, -2.0]), jnp.log(jnp.array([4.0, 0.25]))
+    mu_t, logvar_t = jnp.array([3.0, 0.0]), jnp.log(jnp.array([1.0, 1.0]))
+    for mode in ("std", "var"):
+        m0, v0 = N.blend_gaussians(mu, logvar, mu_t, logvar_t, 0.0, mode)
+        m1, v1 = N.blend_gaussians(mu, logvar, mu_t, logvar_t, 1.0, mode)
+        np.testing.assert_allclose(m0, mu, rtol=1e-6)
+        np.testing.assert_allclose(v0, logvar, rtol=1e-5, atol=1e-6)
+        np.testing.assert_allclose(m1, mu_t, rtol=1e-6)
+        np.testing.assert_allclose(v1, logvar_t, rtol=1e-5, atol=1e-6)
+    m, v = N.blend_gaussians(mu, logvar, mu_t, logvar_t, 0.5, "std")
+    np.testing.assert_allclose(m, [2.0, -1.0], rtol=1e-6)
+    np.testing.assert_allclose(jnp.exp(0.5 * v), [1.5, 0.75], rtol=1e-5)
+    _, v = N.blend_gaussians(mu, logvar, mu_t, logvar_t, 0.5, "var")
+    np.testing.assert_allclose(jnp.exp(v), [1.25, 0.3125], rtol=1e-5)
+
+
+def test_plain_decoder_without_phase_modulation():
+    with_phase = N.init_params(tiny_config(), jax.random.PRNGKey(0))["forward"]["params"]
+    plain = N.init_params(tiny_config("model.phase_modulation=false"), jax.random.PRNGKey(0))["forward"]["params"]
+    assert "gating" in with_phase and "expert_0" in with_phase and "decoder" not in with_phase
+    assert "gating" not in plain and "expert_0" not in plain and "decoder" in plain

@@ -1,0 +1,135 @@
+"""Rollout: keyframes exact, masks for several lengths with one compiled function, ablations, FK."""
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from stitchjax import config as C
+from stitchjax import features as F
+from stitchjax import networks as N
+from stitchjax import rollout as RO
+from stitchjax import skeleton as S
+
+TINY = ["model.encoder_widths=16,16,8", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
+        "model.gating_widths=8", "model.disc_widths=16,8", "model.stitch_buffer=2"]
+B, T, J = 2, 12, 22
+
+
+def tiny_config(*extra):
+    return C.apply_overrides(C.Config(), TINY + list(extra))
+
+
+def synthetic_batch(seed=0, batch=B, frames=T):
+    rng = np.random.default_rng(seed)
+    q = rng.normal(size=(batch, frames, J, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    root = np.cumsum(rng.normal(size=(batch, frames, 3)) * 3.0, axis=1)
+    offsets = rng.normal(size=(batch, 1, J, 3)) * 10.0
+    offsets[:, :, 0] = 0
+    _, gpos = S.forward_kinematics(q, F.local_positions(offsets, root), S.LAFAN1_PARENTS)
+    arrays = {"rotations": q, "root_positions": root, "contacts": rng.integers(0, 2, (batch, frames, 4)),
+              "offsets": offsets, "global_positions": gpos, "phase": rng.normal(size=(batch, frames, 8))}
+    return {k: jnp.asarray(v, jnp.float32) for k, v in arrays.items()}
+
+
+def phase_params_for(config):
+    from stitchjax import phase
+
+    return phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config), config)
+
+
+@pytest.fixture(scope="module")
+def setup():
+    config = tiny_config()
+    params = N.init_params(config, jax.random.PRNGKey(0))
+    phase_params = phase_params_for(config)
+    fn = jax.jit(lambda p, pp, b, k, length: RO.rollout_batch(p, pp, b, k, config, length))
+    return config, params, phase_params, synthetic_batch(), fn
+
+
+def test_keyframes_exact_and_masks_for_several_lengths_one_compile(setup):
+    config, params, phase_params, batch, fn = setup
+    K = config.model.stitch_buffer
+    for length in (1, 2, 5, 7, 10):
+        out = fn(params, phase_params, batch, jax.random.PRNGKey(1), jnp.int32(length))
+        assert out["rotations"].shape == (B, T, J, 4) and out["global_positions"].shape == (B, T, J, 3)
+        np.testing.assert_array_equal(out["rotations"][:, 0], batch["rotations"][:, 0])
+        np.testing.assert_array_equal(out["rotations"][:, length + 1], batch["rotations"][:, length + 1])
+        np.testing.assert_array_equal(out["root_positions"][:, 0], batch["root_positions"][:, 0])
+        np.testing.assert_array_equal(out["root_positions"][:, length + 1], batch["root_positions"][:, length + 1])
+        np.testing.assert_array_equal(out["contacts"][:, length + 1], batch["contacts"][:, length + 1])
+        h = length // 2
+        k = min(K, h)
+        np.testing.assert_array_equal(out["mask"].sum(1), length + 2)
+        assert bool(out["mask"][:, length + 1].all()) and not bool(out["mask"][:, length + 2:].any())
+        np.testing.assert_array_equal(out["forward"]["mask"].sum(1), h + k)
+        np.testing.assert_array_equal(out["backward"]["mask"].sum(1), length - h + k)
+        np.testing.assert_array_equal(out["overlap"]["mask"].sum(1), 2 * k)
+        # generated frames are unit quaternions and differ from the keyframes
+        norms = jnp.linalg.norm(out["rotations"], axis=-1)
+        np.testing.assert_allclose(norms, 1.0, atol=1e-5)
+        assert bool(jnp.isfinite(out["global_positions"]).all())
+    assert fn._cache_size() == 1
+
+
+def test_stitched_frames_come_from_the_right_direction(setup):
+    config, params, phase_params, batch, fn = setup
+    length = 10
+    out = fn(params, phase_params, batch, jax.random.PRNGKey(1), jnp.int32(length))
+    # frame 1 is the forward generator's first frame, frame L the backward generator's first frame
+    np.testing.assert_allclose(out["rotations"][:, 1], out["forward"]["rotations"][:, 0], atol=1e-6)
+    np.testing.assert_allclose(out["rotations"][:, length], out["backward"]["rotations"][:, 0], atol=1e-6)
+    np.testing.assert_allclose(out["root_positions"][:, 1], out["forward"]["root_positions"][:, 0], atol=1e-4)
+    # FK of the forward sequence matches its reported global positions
+    _, gpos = S.forward_kinematics(np.asarray(out["forward"]["rotations"], np.float64),
+                                   F.local_positions(np.asarray(batch["offsets"], np.float64),
+                                                     np.asarray(out["forward"]["root_positions"], np.float64)),
+                                   S.LAFAN1_PARENTS)
+    np.testing.assert_allclose(out["forward"]["global_positions"], gpos, atol=1e-3)
+
+
+def test_noise_gives_diverse_transitions(setup):
+    config, params, phase_params, batch, fn = setup
+    a = fn(params, phase_params, batch, jax.random.PRNGKey(1), jnp.int32(8))
+    b = fn(params, phase_params, batch, jax.random.PRNGKey(2), jnp.int32(8))
+    assert float(jnp.abs(a["rotations"][:, 1:9] - b["rotations"][:, 1:9]).max()) > 1e-4
+    np.testing.assert_array_equal(a["rotations"][:, 9], b["rotations"][:, 9])
+
+
+def test_level_scan_fk_matches_skeleton_fk():
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(2, 5, J, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    p = rng.normal(size=(2, 5, J, 3))
+    want_r, want_p = S.forward_kinematics(q, p, S.LAFAN1_PARENTS)
+    got_r, got_p = jax.jit(lambda a, b: RO.forward_kinematics(a, b, S.LAFAN1_PARENTS))(jnp.asarray(q), jnp.asarray(p))
+    np.testing.assert_allclose(got_r, want_r, atol=1e-5)
+    np.testing.assert_allclose(got_p, want_p, atol=1e-5)
+
+
+@pytest.mark.parametrize("switch", [
+    "model.bidirectional=false", "model.latent_interpolation=false", "model.bidirectional_aligning=false",
+    "model.phase_modulation=false"])
+def test_each_ablation_runs_and_changes_the_output(setup, switch):
+    config, params, phase_params, batch, fn = setup
+    ablated = tiny_config(switch)
+    if switch.startswith("model.phase_modulation"):
+        params = N.init_params(ablated, jax.random.PRNGKey(0))
+    length = jnp.int32(8)
+    full = fn(params if "phase" not in switch else N.init_params(config, jax.random.PRNGKey(0)),
+              phase_params, batch, jax.random.PRNGKey(1), length)
+    out = jax.jit(lambda p, pp, b, k, n: RO.rollout_batch(p, pp, b, k, ablated, n))(
+        params, phase_params, batch, jax.random.PRNGKey(1), length)
+    np.testing.assert_array_equal(out["rotations"][:, 9], batch["rotations"][:, 9])
+    np.testing.assert_array_equal(out["rotations"][:, 0], batch["rotations"][:, 0])
+    assert float(jnp.abs(out["rotations"] - full["rotations"]).max()) > 1e-5
+    if switch == "model.bidirectional=false":
+        assert "backward" not in out and int(out["forward"]["mask"].sum(1)[0]) == 8
+        assert not bool(out["overlap"]["mask"].any())
+
+
+def test_phase_network_modulates_the_decoder(setup):
+    config, params, phase_params, batch, fn = setup
+    with_phase = fn(params, phase_params, batch, jax.random.PRNGKey(1), jnp.int32(6))
+    without = fn(params, None, batch, jax.random.PRNGKey(1), jnp.int32(6))
+    assert float(jnp.abs(with_phase["rotations"] - without["rotations"]).max()) > 1e-6
