@@ -134,6 +134,7 @@ class Discriminator(nn.Module):
 
     def __init__(self, in_features: int, window: int, widths):
         super().__init__()
+        self.window = window
         self.conv = nn.Conv1d(in_features, widths[0], window)
         sizes = list(widths) + [1]
         self.dense = nn.ModuleList(nn.Linear(sizes[i], sizes[i + 1]) for i in range(len(sizes) - 1))
@@ -391,6 +392,9 @@ class Twin:
         for name in pos:
             frames = seqs[name]
             count = n_fwd if name == "forward" else n_bwd
+            if count == 0:  # L = 1: the forward generator makes no frame
+                out[name] = None
+                continue
             out[name] = {"rotations": torch.stack([f["rotations"] for f in frames], 1)[:, :count],
                          "velocities": torch.stack([f["velocity"] for f in frames], 1)[:, :count],
                          "contacts": torch.stack([f["contacts"] for f in frames], 1)[:, :count],
@@ -439,6 +443,10 @@ class Twin:
         terms: dict[str, torch.Tensor] = {}
         for name in directions:
             o = out[name]
+            if o is None:  # no frame in this direction: every term is an empty mean, 0 as in stitchjax
+                for term in ("state", "kl", "fk"):
+                    terms[f"{term}_{name}"] = torch.zeros(())
+                continue
             tg = self._targets(batch, length, o["rotations"].shape[1], name == "backward")
             rot = self._norm1(o["rotations"] - tg["rotations"], (-2, -1)).mean()
             vel = self._norm1(o["velocities"] - tg["velocities"], -1).mean()
@@ -459,9 +467,13 @@ class Twin:
         total = lc.kl_weight * terms["kl"] + lc.stitch_weight * terms["stitch"] + lc.fk_weight * terms["fk"]
         total = total + terms["state"]
         if lc.gen_weight:
-            terms["adv_g_short"] = 0.5 * ((self.discriminators["disc_short"](fake) - 1) ** 2).mean()
-            terms["adv_g_long"] = 0.5 * ((self.discriminators["disc_long"](fake) - 1) ** 2).mean()
-            total = total + lc.gen_weight * (terms["adv_g_short"] + terms["adv_g_long"])
+            for name in ("disc_short", "disc_long"):
+                disc = self.discriminators[name]
+                # a transition shorter than the window has no window position: the term is 0
+                term = (0.5 * ((disc(fake) - 1) ** 2).mean() if fake.shape[1] >= disc.window
+                        else torch.zeros(()))
+                terms["adv_g_" + name[5:]] = term
+                total = total + lc.gen_weight * term
         return total, terms, fake
 
     def discriminator_loss(self, batch: dict, fake):
@@ -471,8 +483,9 @@ class Twin:
         total = 0.0
         for name in ("disc_short", "disc_long"):
             disc = self.discriminators[name]
-            total = total + 0.5 * ((disc(real) - 1) ** 2).mean() + 0.5 * (disc(fake) ** 2).mean()
-        return self.config.loss.disc_weight * total
+            if frames >= disc.window:
+                total = total + 0.5 * ((disc(real) - 1) ** 2).mean() + 0.5 * (disc(fake) ** 2).mean()
+        return self.config.loss.disc_weight * torch.as_tensor(total)
 
     # -------------------------------------------------------------------------------- train / infer
 

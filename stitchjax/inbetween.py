@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import logging
 import os
 import pathlib
 import warnings
@@ -155,14 +156,20 @@ def load_model(checkpoint, step: int | None = None) -> Model:
 
     workdir, folder_step = _resolve_checkpoint(checkpoint)
     step = folder_step if step is None else int(step)
-    config = config_lib.from_dict(checkpoints.read_config_json(workdir, step))
-    manager = checkpoints.open_manager(workdir, read_only=True)
+    absl_logger = logging.getLogger("absl")
+    level = absl_logger.level
+    absl_logger.setLevel(logging.ERROR)  # orbax warns that a read-only directory is read only
     try:
-        if step is None:
-            step = manager.latest_step()
-        state, _, extras = checkpoints.restore(manager, train.abstract_train_state(config), step)
+        config = config_lib.from_dict(checkpoints.read_config_json(workdir, step))
+        manager = checkpoints.open_manager(workdir, read_only=True)
+        try:
+            if step is None:
+                step = manager.latest_step()
+            state, _, extras = checkpoints.restore(manager, train.abstract_train_state(config), step)
+        finally:
+            manager.close()
     finally:
-        manager.close()
+        absl_logger.setLevel(level)
     stats = {k: np.asarray(v, np.float64) for k, v in (extras.get("stats") or {}).items()}
     names = extras.get("joint_names")
     names = tuple(names) if names else _default_joint_names(config)

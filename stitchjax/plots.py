@@ -169,7 +169,7 @@ def _frame_axes(ax, xmin, xmax, ymin, ymax, margin: float = 0.08):
     ax.set_aspect("equal", adjustable="box")
     ax.set_xticks([])
     ax.set_yticks([])
-    for side in ("top", "right", "left"):
+    for side in ("top", "right", "left", "bottom"):
         ax.spines[side].set_visible(False)
 
 

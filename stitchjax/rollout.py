@@ -231,7 +231,11 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         w = jnp.zeros((t_out,), dtype)
     q_f, q_b = from_fwd["rotations"], from_bwd["rotations"]
     sign = jnp.where(jnp.sum(q_f * q_b, axis=-1, keepdims=True) < 0, -1.0, 1.0).astype(dtype)
-    rot = R.quat_normalize((1 - w)[:, None, None] * q_f + w[:, None, None] * sign * q_b)
+    # the lighter-weighted sequence joins the other's hemisphere: frames outside the overlap stay exact
+    w3 = w[:, None, None]
+    q_f = jnp.where(w3 >= 0.5, sign * q_f, q_f)
+    q_b = jnp.where(w3 < 0.5, sign * q_b, q_b)
+    rot = R.quat_normalize((1 - w3) * q_f + w3 * q_b)
     root = (1 - w)[:, None] * from_fwd["root"] + w[:, None] * from_bwd["root"]
     contacts = (1 - w)[:, None] * from_fwd["contacts"] + w[:, None] * from_bwd["contacts"]
     is_start, is_target = (t == 0), (t >= length + 1)

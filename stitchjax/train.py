@@ -240,18 +240,28 @@ def abstract_train_state(config, mesh: Mesh | None = None) -> TrainState:
 # ---------------------------------------------------------------------------------------- train step
 
 
-def global_norm(tree) -> jax.Array:
-    return optax.global_norm(tree)
+def make_sampler(config, mesh: Mesh | None = None, window: int | None = None):
+    """Jitted `sample(dataset, key, step) -> batch`: the batch of step `step`, drawn on device.
+
+    Uses fold_in(key, step) split in 3 (batch, generator noise, discriminator noise), as the update does.
+    """
+    mesh = make_mesh() if mesh is None else mesh
+    batch_size = config.train.batch_size
+
+    def sample(dataset, key, step):
+        batch_key = jax.random.split(jax.random.fold_in(key, step), 3)[0]
+        return sample_batch(dataset, batch_key, batch_size, mesh, window)
+
+    return jax.jit(sample)
 
 
-def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
-                    generator_loss: Callable | None = None, discriminator_loss: Callable | None = None):
-    """Build the jitted `train_step(state, dataset, length) -> (state, metrics)`.
+def make_update_step(config, mesh: Mesh | None = None,
+                     generator_loss: Callable | None = None, discriminator_loss: Callable | None = None):
+    """Jitted `update(state, batch, length) -> (state, metrics)`: one update of all four networks.
 
-    dataset: dict of (N, T, ...) arrays from `shard_dataset`. length: int32 transition length (traced).
-    window: frames per training window seen by the losses (static; None = the dataset's T). Metrics: the
-    generator "loss", "disc_loss", every term of both, "length", gradient norms; all float32 scalars.
-    The state argument is donated: do not use the old state after the call.
+    batch: dict of (B, T, ...) arrays (batch axis sharded over the mesh). ONE rollout per generator
+    (inside `generator_loss`, whose third output, when present, is handed to `discriminator_loss`).
+    The state is donated: do not use the old state after the call.
     """
     if generator_loss is None or discriminator_loss is None:
         from stitchjax import losses
@@ -260,12 +270,10 @@ def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
         discriminator_loss = discriminator_loss or losses.discriminator_loss
     mesh = make_mesh() if mesh is None else mesh
     optimizer = make_optimizer(config.train)
-    batch_size = config.train.batch_size
 
-    def step(state: TrainState, dataset: dict, length: jax.Array):
+    def update(state: TrainState, batch: dict, length: jax.Array):
         key = jax.random.fold_in(state.key, state.step)
-        batch_key, gen_key, disc_key = jax.random.split(key, 3)
-        batch = sample_batch(dataset, batch_key, batch_size, mesh, window)
+        _, gen_key, disc_key = jax.random.split(key, 3)
         generators, discriminators = split_params(state.params)
 
         def gen_objective(gen_params):
@@ -293,8 +301,8 @@ def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
         metrics.update({name: value for name, value in gen_terms.items() if name not in metrics})
         metrics.update({(name if name not in metrics else f"disc_{name}"): value
                         for name, value in disc_terms.items()})
-        metrics["gen_grad_norm"] = global_norm(gen_grads)
-        metrics["disc_grad_norm"] = global_norm(disc_grads)
+        metrics["gen_grad_norm"] = optax.global_norm(gen_grads)
+        metrics["disc_grad_norm"] = optax.global_norm(disc_grads)
         metrics = {name: jnp.asarray(value, jnp.float32) for name, value in metrics.items()}
         metrics["length"] = jnp.asarray(length, jnp.int32)
         new_state = state.replace(step=state.step + 1, params=new_params, gen_opt_state=gen_opt_state,
@@ -302,7 +310,28 @@ def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
         return new_state, metrics
 
     rep = replicated(mesh)
-    return jax.jit(step, donate_argnums=(0,), out_shardings=(rep, rep))
+    return jax.jit(update, donate_argnums=(0,), out_shardings=(rep, rep))
+
+
+def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
+                    generator_loss: Callable | None = None, discriminator_loss: Callable | None = None):
+    """`train_step(state, dataset, length) -> (state, metrics)`: draw the step's batch on device, update.
+
+    dataset: dict of (N, T, ...) arrays from `shard_dataset`. length: int32 transition length (traced).
+    window: frames per training window the losses see (static; None = the dataset's T). Metrics: the
+    generator "loss", "disc_loss", every term of both, "length", gradient norms; float32 scalars.
+    Two jitted calls (sampler, then update): keeping the gather out of the update's program was measured
+    to make its compilation several times faster on CPU. The state is donated.
+    """
+    mesh = make_mesh() if mesh is None else mesh
+    sample = make_sampler(config, mesh, window)
+    update = make_update_step(config, mesh, generator_loss, discriminator_loss)
+
+    def train_step(state: TrainState, dataset: dict, length):
+        return update(state, sample(dataset, state.key, state.step), length)
+
+    train_step.sample, train_step.update = sample, update
+    return train_step
 
 
 # ------------------------------------------------------------------------------------------- schedule
@@ -381,24 +410,36 @@ def read_metrics(path: str | os.PathLike) -> list[dict]:
 
 
 def plot_loss_curves(records: list[dict], path: str | os.PathLike) -> None:
-    """One panel per logged loss term against step (matplotlib, Agg backend)."""
+    """One panel per loss term against step (matplotlib, Agg backend).
+
+    Per-direction / per-discriminator parts ("fk_forward", "adv_d_short", ...) share their term's panel.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    skip = {"step", "windows_per_s", "time_s", "length", "epoch"}
+    skip = {"step", "windows_per_s", "time_s", "epoch"}
+    suffixes = ("_forward", "_backward", "_short", "_long")
     names = [n for n in records[0] if n not in skip] if records else []
-    cols = 3
-    rows = max(1, math.ceil((len(names) + 1) / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(4 * cols, 2.6 * rows), squeeze=False)
+    panels = {n: [] for n in names if not n.endswith(suffixes) or n.rsplit("_", 1)[0] not in names}
+    for n in names:
+        if n not in panels:
+            panels[n.rsplit("_", 1)[0]].append(n)
+    cols = 4
+    rows = max(1, math.ceil(len(panels) / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 2.4 * rows), squeeze=False)
     steps = [r["step"] for r in records]
-    for ax, name in zip(axes.flat, names + ["length"]):
-        ax.plot(steps, [r.get(name, np.nan) for r in records], lw=1)
+    for ax, (name, parts) in zip(axes.flat, panels.items()):
+        ax.plot(steps, [r.get(name, np.nan) for r in records], lw=1.4, label=name)
+        for part in parts:
+            ax.plot(steps, [r.get(part, np.nan) for r in records], lw=0.8, alpha=0.7, label=part)
+        if parts:
+            ax.legend(fontsize=6)
         ax.set_title(name, fontsize=9)
         ax.set_xlabel("step", fontsize=8)
         ax.tick_params(labelsize=7)
-    for ax in list(axes.flat)[len(names) + 1:]:
+    for ax in list(axes.flat)[len(panels):]:
         ax.axis("off")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
@@ -410,7 +451,8 @@ def write_report(workdir: pathlib.Path, config_name: str, records: list[dict], s
     lines = [f"# Training report: {config_name}", "",
              f"- steps: {summary['step']} (this invocation: {summary['steps_run']}, "
              f"started at step {summary['start_step']})",
-             f"- wall time (this invocation): {summary['wall_s']:.1f} s, of which first-step compile "
+             f"- wall time (this invocation): {summary['setup_s']:.1f} s setup (data, phase pretraining, "
+             f"init or restore) + {summary['wall_s']:.1f} s training loop, of which first-step compile "
              f"{summary['compile_s']:.1f} s",
              f"- throughput: {summary['windows_per_s']:.1f} windows/s; devices: {summary['devices']}",
              f"- training windows: {summary['num_windows']}; batch {summary['batch_size']}; "
@@ -418,9 +460,10 @@ def write_report(workdir: pathlib.Path, config_name: str, records: list[dict], s
              f"- stopped because: {summary['stop_reason']}", ""]
     if records:
         last = records[-1]
-        lines += ["| term | first logged | final |", "|---|---|---|"]
+        lines += [f"Loss terms at the first and the last logged step (means over the {summary['log_every']} "
+                  "steps before it):", "", "| term | first logged | final |", "|---|---|---|"]
         for name in last:
-            if name in ("step", "time_s"):
+            if name in ("step", "time_s", "windows_per_s"):
                 continue
             lines.append(f"| {name} | {records[0].get(name, float('nan')):.5g} | {last[name]:.5g} |")
     lines += ["", "Loss curves: loss_curves.png; every logged step: metrics.jsonl."]
@@ -491,19 +534,7 @@ def pretrain_phase_params(config, dataset: dict, key: jax.Array):
         raise TrainingError("features.dataset_states is missing: cannot pretrain the phase network")
     states = np.asarray(states).reshape(-1, np.shape(states)[-1])
     labels = np.asarray(dataset["phase"]).reshape(states.shape[0], -1)
-    return phase.pretrain_phase(key, states, labels, config, **_phase_pretrain_overrides(config))
-
-
-def _phase_pretrain_overrides(config) -> dict:
-    """PhaseConfig.pretrain_* fields under the names phase.pretrain_phase reads (steps, batch_size, ...).
-
-    Only settings that do not change the network's shape, and only where config.phase lacks the name.
-    """
-    names = {"steps": "pretrain_steps", "batch_size": "pretrain_batch_size",
-             "learning_rate": "pretrain_learning_rate"}
-    section = getattr(config, "phase", None)
-    return {name: getattr(section, field) for name, field in names.items()
-            if section is not None and not hasattr(section, name) and hasattr(section, field)}
+    return phase.pretrain_phase(key, states, labels, config)
 
 
 # ------------------------------------------------------------------------------------------------ loop
@@ -545,6 +576,7 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
     `data_dir` (None = the bundled LAFAN1 sample). train_step: a replacement step function (tests).
     Returns a summary dict (step, losses, wall time, stop_reason). Raises NonFiniteLossError on NaN/inf.
     """
+    t_begin = time.perf_counter()
     workdir = pathlib.Path(workdir).expanduser().resolve()
     is_main = jax.process_index() == 0
     workdir.mkdir(parents=True, exist_ok=True)
@@ -602,6 +634,7 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
     last_saved = latest
     step = start_step
     length = transition_length(step, per_epoch, tc)
+    interval_sums, interval_count = {}, 0  # metrics are logged as means over the logging interval
     try:
         with _StopFlag() as stop:
             while step < max_steps:
@@ -609,21 +642,25 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
                 t0 = time.perf_counter()
                 state, metrics = step_fn(length)(state, device_data, jnp.int32(length))
                 metrics = jax.device_get(metrics)
+                check_finite(metrics, step + 1)
+                for name, value in metrics.items():
+                    interval_sums[name] = interval_sums.get(name, 0.0) + float(value)
+                interval_count += 1
                 if step == start_step:
                     compile_s = time.perf_counter() - t0
                     t_log, windows_since_log = time.perf_counter(), 0
                 else:
                     windows_since_log += tc.batch_size
                 step += 1
-                check_finite(metrics, step)
                 if step % tc.log_every == 0 or step == max_steps:
                     now = time.perf_counter()
                     rate = windows_since_log / max(now - t_log, 1e-9)
-                    record = {"step": step, **{k: float(v) for k, v in metrics.items()},
+                    record = {"step": step, **{k: v / interval_count for k, v in interval_sums.items()},
                               "length": int(length), "epoch": step / per_epoch,
                               "windows_per_s": rate, "time_s": now - t_start}
                     log.write(record)
                     t_log, windows_since_log = now, 0
+                    interval_sums, interval_count = {}, 0
                     if bar is not None:
                         bar.set_postfix(loss=f"{record['loss']:.4g}", L=length, win_s=f"{rate:.0f}")
                 if bar is not None:
@@ -657,10 +694,12 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
     timed = max(steps_run - 1, 0)
     summary = {
         "step": step, "start_step": start_step, "steps_run": steps_run, "wall_s": wall,
+        "setup_s": t_start - t_begin,
         "compile_s": compile_s, "stop_reason": stop_reason, "length": int(length),
         "windows_per_s": timed * tc.batch_size / max(wall - compile_s, 1e-9) if timed else 0.0,
         "devices": f"{jax.device_count()} x {jax.devices()[0].platform}",
         "num_windows": num_windows, "batch_size": tc.batch_size, "workdir": str(workdir),
+        "log_every": tc.log_every,
     }
     if is_main:
         records = read_metrics(log.path)

@@ -150,10 +150,27 @@ def test_clip_replaces_only_the_frames_between_the_keyframes(model, take):
         assert np.abs(g[100] - full[100]).max() < TOL_CM and np.abs(g[101 + LENGTH] - full[120]).max() < TOL_CM
 
 
+def _one_window(take, first=200):
+    frames = take[first:first + 12]
+    return Windows(frames.rotations[None], frames.positions[None],
+                   foot_contacts(_global(frames)[None], (3, 4, 7, 8)), take.skeleton, take.fps, [f"t:{first}"])
+
+
+def test_rollout_details_uses_the_given_noise(model, take):
+    """The latent-space helpers feed the rollout the noise they are given (same noise, same motion)."""
+    start, target, offsets = inbetween.window_keyframes(model, _one_window(take), 1, LENGTH)
+    plain = inbetween.sample_transitions(model, start, target, offsets, LENGTH, CANDIDATES, seed=4)
+    window_key = jax.random.split(jax.random.PRNGKey(4), 1)[0]
+    shape = inbetween.noise_shape(model, LENGTH)
+    noise = np.stack([jax.random.normal(k, shape) for k in jax.random.split(window_key, CANDIDATES)])[None]
+    details = inbetween.rollout_details(model, start, target, offsets, LENGTH, noise)
+    np.testing.assert_allclose(details["global_positions"], plain["global_positions"], atol=1e-3)
+    np.testing.assert_allclose(details["stitch_loss"], plain["stitch_loss"], rtol=1e-4)
+    assert details["forward"]["mu_blend"].shape[:2] == (1, CANDIDATES)
+
+
 def test_evaluation_method_shapes(model, take):
-    frames = take[200:212]
-    windows = Windows(frames.rotations[None], frames.positions[None],
-                      foot_contacts(_global(frames)[None], (3, 4, 7, 8)), take.skeleton, take.fps, ["t:200"])
+    windows = _one_window(take)
     method = inbetween.model_method(model)
     rot, pos = method(windows, 1, LENGTH, CANDIDATES, 11)
     assert rot.shape == (CANDIDATES, 1, LENGTH, 22, 4) and pos.shape == (CANDIDATES, 1, LENGTH, 22, 3)
