@@ -22,6 +22,7 @@ implementations can be fed the same samples (``check_equal_loss`` does exactly t
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -272,6 +273,8 @@ class Twin:
             else:
                 load_mlp(g.decoder, p["decoder"])
         for name in ("disc_short", "disc_long"):
+            if name not in params:  # an inference model holds the generators only
+                continue
             p = params[name]["params"]
             d = self.discriminators[name]
             d.conv.weight.copy_(t(p["temporal_conv"]["kernel"]).permute(2, 1, 0))
@@ -507,7 +510,7 @@ class Twin:
         disc_loss = self.discriminator_loss(batch, fake)
         disc_loss.backward()
         self.disc_opt.step()
-        return {"loss": float(loss), "disc_loss": float(disc_loss)}
+        return {"loss": loss.item(), "disc_loss": disc_loss.item()}
 
     def make_inference(self, data: dict, length: int, samples: int, seed: int = 0):
         """A function running ``samples`` transitions of ``length`` frames between window 0's frames 0
@@ -550,20 +553,30 @@ def jax_noise(key, batch_size: int, config, max_length: int) -> np.ndarray:
     return np.asarray(eps)
 
 
+@functools.lru_cache(maxsize=8)
+def _jax_losses(config):
+    """stitchjax's generator + discriminator losses, jitted once per config (length is traced)."""
+    import jax
+    from stitchjax import losses
+
+    def both(params, phase_params, batch, key, length):
+        total, terms, generated = losses.generator_loss(params, phase_params, batch, key, config, length)
+        disc_total, _ = losses.discriminator_loss(params, phase_params, batch, key, config, length, generated)
+        return total, terms, disc_total
+
+    return jax.jit(both)
+
+
 def check_equal_loss(config, params, phase_params, batch_np: dict, length: int, key) -> dict:
     """Generator and discriminator losses of stitchjax and the twin on the same weights, batch and noise.
 
     batch_np: numpy dict (B, T, ...) as from ``features.prepare_dataset``. Returns
     {"jax_loss", "torch_loss", "jax_terms", "torch_terms", "jax_disc_loss", "torch_disc_loss"}.
     """
-    import jax
     import jax.numpy as jnp
-    from stitchjax import losses
 
     batch_j = {k_: jnp.asarray(v) for k_, v in batch_np.items()}
-    total, terms, generated = losses.generator_loss(params, phase_params, batch_j, key, config, jnp.int32(length))
-    disc_total, _ = losses.discriminator_loss(params, phase_params, batch_j, key, config, jnp.int32(length),
-                                              generated)
+    total, terms, disc_total = _jax_losses(config)(params, phase_params, batch_j, key, jnp.int32(length))
     twin = Twin(config)
     twin.load_flax(params, phase_params)
     batch_t = batch_to_torch(batch_np, np.arange(batch_np["rotations"].shape[0]))

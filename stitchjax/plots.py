@@ -109,22 +109,29 @@ def _check_pose(positions, parents):
 
 
 def draw_skeleton(ax, positions, parents, *, axis=(1.0, 0.0), shift: float = 0.0, color="C0",
-                  linewidth: float = 1.5, alpha: float = 1.0, zorder: int = 2) -> list:
+                  linewidth: float = 1.5, alpha: float = 1.0, zorder: int = 2, shade_far: bool = True) -> list:
     """Draw one pose as a stick figure on ``ax``: one line per bone (J - 1 lines).
 
     positions: (J, 3) global positions (Y-up); parents: (J,) parent indices (-1 for the root).
     axis: horizontal screen direction (x, z) (see :func:`horizontal_axis`); shift: added to the
-    horizontal screen coordinate (to lay figures side by side). Returns the list of Line2D bones.
+    horizontal screen coordinate (to lay figures side by side). shade_far: bones farther from the
+    viewer than the root are drawn fainter and thinner, so left and right limbs can be told apart.
+    Returns the list of Line2D bones.
     """
     p = _check_pose(positions, parents)
-    screen = project(p, np.asarray(axis, dtype=np.float64))
+    axis = np.asarray(axis, dtype=np.float64)
+    screen = project(p, axis)
     screen[:, 0] += shift
+    # Towards the viewer: (axis_x, 0, axis_z) x (0, 1, 0) = (-axis_z, 0, axis_x).
+    nearness = -axis[1] * p[:, 0] + axis[0] * p[:, 2]
     lines = []
     for j, parent in enumerate(parents):
         if parent < 0:
             continue
+        far = shade_far and 0.5 * (nearness[j] + nearness[parent]) < nearness[0] - 1e-9
         (line,) = ax.plot(screen[[parent, j], 0], screen[[parent, j], 1], color=color,
-                          linewidth=linewidth, alpha=alpha, solid_capstyle="round", zorder=zorder)
+                          linewidth=linewidth * (0.75 if far else 1.0), alpha=alpha * (0.45 if far else 1.0),
+                          solid_capstyle="round", zorder=zorder - (0.5 if far else 0.0))
         lines.append(line)
     return lines
 
@@ -244,7 +251,7 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
             shift = screen[k, 0, 0] - project(m[t, :1], axis)[0, 0]
             draw_skeleton(ax, m[t], parents, axis=axis, shift=shift, color=colors[t],
                           linewidth=1.6 if is_key else 1.2, zorder=3 if is_key else 2)
-        ax.axhline(ymin, color="0.8", linewidth=0.8, zorder=1)
+        ax.axhline(ymin, color="0.8", linewidth=0.8, zorder=1, gid="ground")
         ax.set_xlim(xmin - pad, xmax + pad)
         ax.set_ylim(ymin - pad, ymax + pad)
         ax.set_aspect("equal", adjustable="box", anchor="W")

@@ -141,7 +141,7 @@ def _stack_first(first, rest):
     return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b], axis=0), first, rest)
 
 
-def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int):
+def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int, noise=None):
     """Generate one transition.
 
     Args:
@@ -154,6 +154,8 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
       config: Config (static).
       length: () int, traced: L generated frames, 1 <= L <= max_length (clipped into that range).
       max_length: static maximum L (training: window - 2).
+      noise: optional (num_steps(config, max_length), 2, latent_dim) standard normal latent noise
+        ([:, 0] forward, [:, 1] backward) used instead of drawing it from ``key`` (latent search).
     Returns dict (T_out = max_length + 2):
       "rotations" (T_out, J, 4), "root_positions" (T_out, 3), "contacts" (T_out, C),
       "global_positions" (T_out, J, 3): the stitched motion, frame 0 = start and frame L + 1 = target
@@ -179,7 +181,13 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
                 "velocity": jnp.zeros((3,), dtype), "contacts": kf["contacts"]}
 
     start_frame, target_frame = keyframe(start), keyframe(target)
-    eps = jax.random.normal(key, (n, 2, m.latent_dim), dtype)
+    if noise is None:
+        eps = jax.random.normal(key, (n, 2, m.latent_dim), dtype)
+    else:
+        eps = jnp.asarray(noise, dtype)
+        if eps.shape != (n, 2, m.latent_dim):
+            raise ValueError(f"noise has shape {eps.shape}; rollout needs ({n}, 2, {m.latent_dim}) "
+                             f"= (num_steps(config, max_length), 2, latent_dim)")
     steps = jnp.arange(n, dtype=jnp.int32)
     total = (length + 1).astype(dtype)
     carry0 = networks.initial_carry(config, dtype)

@@ -15,6 +15,11 @@ TINY = ["model.encoder_widths=16,16,8", "model.lstm_size=16", "model.latent_dim=
 B, T, J = 2, 12, 22
 
 
+def init_params(config, key):
+    """networks.init_params (eager: cheaper than compiling the initialisers on a CPU)."""
+    return N.init_params(config, key)
+
+
 def synthetic_batch(seed=0):
     rng = np.random.default_rng(seed)
     q = rng.normal(size=(B, T, J, 4))
@@ -59,7 +64,7 @@ def setup():
     from stitchjax import phase
 
     config = C.apply_overrides(C.Config(), TINY)
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = init_params(config, jax.random.PRNGKey(0))
     phase_params = phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config), config)
     return config, params, phase_params, synthetic_batch()
 
@@ -108,13 +113,6 @@ def test_generator_and_discriminator_losses_finite_gradients(setup):
     # length 10: the 12-frame motion holds 10-frame windows, so the long discriminator learns too
     assert float(terms["adv_g_long"]) > 0
     assert any(float(jnp.abs(x).max()) > 0 for x in jax.tree.leaves(d_grads["disc_long"]))
-
-
-def test_discriminator_loss_runs_its_own_rollout_when_not_given_one(setup):
-    config, params, phase_params, batch = setup
-    total, terms = jax.jit(lambda p, pp, b, k, n: LS.discriminator_loss(p, pp, b, k, config, n))(
-        params, phase_params, batch, jax.random.PRNGKey(1), jnp.int32(5))
-    assert bool(jnp.isfinite(total)) and float(total) > 0
 
 
 def test_prepare_dataset_on_synthetic_windows():

@@ -10,13 +10,18 @@ TINY = ["model.encoder_widths=16,16,8", "model.lstm_size=16", "model.latent_dim=
         "model.gating_widths=8", "model.disc_widths=16,8", "model.stitch_buffer=2"]
 
 
+def init_params(config, key):
+    """networks.init_params (eager: cheaper than compiling the initialisers on a CPU)."""
+    return N.init_params(config, key)
+
+
 def tiny_config(*extra):
     return C.apply_overrides(C.Config(), TINY + list(extra))
 
 
 def test_init_params_and_generator_shapes():
     config = tiny_config()
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = init_params(config, jax.random.PRNGKey(0))
     assert set(params) == {"forward", "backward", "disc_short", "disc_long"}
     kernel = params["forward"]["params"]["current_head"]["kernel"]
     assert not np.allclose(kernel, params["backward"]["params"]["current_head"]["kernel"])  # independent
@@ -25,7 +30,7 @@ def test_init_params_and_generator_shapes():
     b = 3
     inputs = [jnp.ones((b, dims[k])) for k in ("state", "target", "offset")]
     carry = jax.tree.map(lambda x: jnp.zeros((b,) + x.shape), N.initial_carry(config))
-    apply = jax.vmap(N.make_generator(config).apply, in_axes=(None, 0, 0, 0, 0, 0, 0, 0))
+    apply = jax.jit(jax.vmap(N.make_generator(config).apply, in_axes=(None, 0, 0, 0, 0, 0, 0, 0)))
     new_carry, out = apply(params["forward"], carry, *inputs, jnp.full((b,), 0.5), jnp.ones((b, 8)), jnp.ones((b, 4)))
     assert new_carry[0].shape == (b, 16) and new_carry[1].shape == (b, 16)
     assert out["velocity"].shape == (b, 3) and out["rotation_update"].shape == (b, 88)
@@ -39,7 +44,7 @@ def test_init_params_and_generator_shapes():
 
 def test_discriminator_scores_one_per_window_position():
     config = tiny_config()
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = init_params(config, jax.random.PRNGKey(0))
     feats = jnp.ones((2, 12, N.disc_feature_dim(config)))
     short = N.make_discriminator(config, "disc_short").apply(params["disc_short"], feats)
     long = N.make_discriminator(config, "disc_long").apply(params["disc_long"], feats)
@@ -50,9 +55,9 @@ def test_moe_einsum_equals_blended_weights():
     layer = N.MoEDense(features=5, num_experts=4)
     x = jax.random.normal(jax.random.PRNGKey(1), (3, 6))
     coefficients = jax.nn.softmax(jax.random.normal(jax.random.PRNGKey(2), (3, 4)))
-    params = layer.init(jax.random.PRNGKey(0), x, coefficients)
+    params = jax.jit(layer.init)(jax.random.PRNGKey(0), x, coefficients)
     params = jax.tree.map(lambda p: p + 0.1 * jax.random.normal(jax.random.PRNGKey(3), p.shape), params)
-    got = layer.apply(params, x, coefficients)
+    got = jax.jit(layer.apply)(params, x, coefficients)
     kernel, bias = params["params"]["kernel"], params["params"]["bias"]
     explicit = []
     for i in range(3):
@@ -80,7 +85,7 @@ def test_blend_gaussians_endpoints_and_modes():
 
 
 def test_plain_decoder_without_phase_modulation():
-    with_phase = N.init_params(tiny_config(), jax.random.PRNGKey(0))["forward"]["params"]
-    plain = N.init_params(tiny_config("model.phase_modulation=false"), jax.random.PRNGKey(0))["forward"]["params"]
+    with_phase = init_params(tiny_config(), jax.random.PRNGKey(0))["forward"]["params"]
+    plain = init_params(tiny_config("model.phase_modulation=false"), jax.random.PRNGKey(0))["forward"]["params"]
     assert "gating" in with_phase and "expert_0" in with_phase and "decoder" not in with_phase
     assert "gating" not in plain and "expert_0" not in plain and "decoder" in plain

@@ -15,6 +15,11 @@ TINY = ["model.encoder_widths=16,16,8", "model.lstm_size=16", "model.latent_dim=
 B, T, J = 2, 12, 22
 
 
+def init_params(config, key):
+    """networks.init_params (eager: cheaper than compiling the initialisers on a CPU)."""
+    return N.init_params(config, key)
+
+
 def tiny_config(*extra):
     return C.apply_overrides(C.Config(), TINY + list(extra))
 
@@ -41,7 +46,7 @@ def phase_params_for(config):
 @pytest.fixture(scope="module")
 def setup():
     config = tiny_config()
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = init_params(config, jax.random.PRNGKey(0))
     phase_params = phase_params_for(config)
     fn = jax.jit(lambda p, pp, b, k, length: RO.rollout_batch(p, pp, b, k, config, length))
     return config, params, phase_params, synthetic_batch(), fn
@@ -114,9 +119,9 @@ def test_each_ablation_runs_and_changes_the_output(setup, switch):
     config, params, phase_params, batch, fn = setup
     ablated = tiny_config(switch)
     if switch.startswith("model.phase_modulation"):
-        params = N.init_params(ablated, jax.random.PRNGKey(0))
+        params = init_params(ablated, jax.random.PRNGKey(0))
     length = jnp.int32(8)
-    full = fn(params if "phase" not in switch else N.init_params(config, jax.random.PRNGKey(0)),
+    full = fn(params if "phase" not in switch else init_params(config, jax.random.PRNGKey(0)),
               phase_params, batch, jax.random.PRNGKey(1), length)
     out = jax.jit(lambda p, pp, b, k, n: RO.rollout_batch(p, pp, b, k, ablated, n))(
         params, phase_params, batch, jax.random.PRNGKey(1), length)

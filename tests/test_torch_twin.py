@@ -26,30 +26,36 @@ TINY = ["model.encoder_widths=32,32,16", "model.lstm_size=32", "model.latent_dim
         "train.max_length=12", "train.batch_size=3"]
 
 
-def tiny_setup(extra=()):
-    config = config_lib.apply_overrides(config_lib.load_config("lafan1"), TINY + list(extra))
-    params = networks.init_params(config, jax.random.PRNGKey(0))
+@pytest.fixture(scope="module")
+def tiny():
+    """(config, params, phase_params, data): tiny full model (MoE decoder, phase gating), 3 windows of 14 frames."""
+    config = config_lib.apply_overrides(config_lib.load_config("lafan1"), TINY)
+    params = jax.jit(lambda key: networks.init_params(config, key))(jax.random.PRNGKey(0))
     phase_params = phase.init_phase_params(jax.random.PRNGKey(1), features.state_dim(config), config)
     data = run_all.synthetic_dataset(config, 3, 14)
     return config, params, phase_params, data
 
 
-@pytest.mark.parametrize("length, extra", [(12, ()), (7, ()), (9, ("model.phase_modulation=false",))])
-def test_twin_matches_stitchjax_losses(length, extra):
-    config, params, phase_params, data = tiny_setup(extra)
-    result = torch_twin.check_equal_loss(config, params, phase_params, data, length, jax.random.PRNGKey(2))
-    assert result["jax_loss"] > 0
-    np.testing.assert_allclose(result["torch_loss"], result["jax_loss"], rtol=2e-5)
-    np.testing.assert_allclose(result["torch_disc_loss"], result["jax_disc_loss"], rtol=2e-5)
-    for name, value in result["torch_terms"].items():
-        np.testing.assert_allclose(value, result["jax_terms"][name], rtol=1e-4, atol=1e-6, err_msg=name)
+def test_twin_matches_stitchjax_losses(tiny):
+    """Same weights, batch and latent noise: same generator loss, every term, and discriminator loss.
+    Length 12 = the window's maximum (nothing masked), 7 = odd (the backward generator makes one frame more
+    than the forward one) and shorter than the long discriminator's 10-frame window."""
+    config, params, phase_params, data = tiny
+    for length in (12, 7):
+        result = torch_twin.check_equal_loss(config, params, phase_params, data, length, jax.random.PRNGKey(2))
+        assert result["jax_loss"] > 0
+        np.testing.assert_allclose(result["torch_loss"], result["jax_loss"], rtol=2e-5, err_msg=f"L={length}")
+        np.testing.assert_allclose(result["torch_disc_loss"], result["jax_disc_loss"], rtol=2e-5)
+        for name, value in result["torch_terms"].items():
+            np.testing.assert_allclose(value, result["jax_terms"][name], rtol=1e-4, atol=1e-6,
+                                       err_msg=f"{name}, L={length}")
 
 
-def test_twin_noise_matters_and_train_step_updates():
+def test_twin_noise_matters_and_train_step_updates(tiny):
     """Different noise gives a different loss (so the equality above is not vacuous); a train step
     changes the generator and discriminator weights and returns finite losses."""
-    config, params, phase_params, data = tiny_setup()
-    twin = torch_twin.Twin(config)
+    config, params, phase_params, data = tiny
+    twin = torch_twin.Twin(config, threads=1)
     twin.load_flax(params, phase_params)
     batch = torch_twin.batch_to_torch(data, np.arange(3))
     eps = torch.from_numpy(np.array(torch_twin.jax_noise(jax.random.PRNGKey(2), 3, config, 12)))
