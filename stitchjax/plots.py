@@ -186,7 +186,7 @@ def _frame_axes(ax, xmin, xmax, ymin, ymax, margin: float = 0.08):
 def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | None = None,
               transition: tuple | None = None, titles: Sequence[str] | None = None, view="auto",
               spacing: float | None = None, travel: bool = False, cmap: str = DEFAULT_CMAP,
-              width_per_figure: float = 0.45, row_height: float = 1.6, dpi: int = 100,
+              row_height: float = 1.6, dpi: int = 100,
               figsize=None, title: str | None = None, path=None) -> Figure:
     """Several motions as filmstrips, one row per motion, a stick figure every ``every`` frames.
 
@@ -198,7 +198,8 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
     spacing: horizontal distance between consecutive figures (file units; default 0.6 x body height);
       each figure is centred on its own root unless ``travel=True`` (then it keeps its real
       horizontal displacement from the first drawn frame, which shows speed but may overlap).
-    Figure size: ``figsize`` or (0.6 + width_per_figure x figures per row, row_height x rows) inches.
+    Figure size: ``figsize``, or ``row_height`` inches per row and the width that keeps the poses'
+    aspect ratio (plus room for the titles).
     """
     if isinstance(motions, np.ndarray) and motions.ndim == 3:
         motions = [motions]
@@ -354,7 +355,7 @@ def error_over_time(errors: Mapping[str, Sequence[float]], *, first_frame: int =
 
 def animate(motions, parents, path, *, fps: float = 30.0, keyframes: Sequence[int] | None = None,
             transition: tuple | None = None, titles: Sequence[str] | None = None, view="auto",
-            spacing: float | None = None, cmap: str = DEFAULT_CMAP, height: float = 2.6,
+            cmap: str = DEFAULT_CMAP, height: float = 2.6,
             dpi: int = 80):
     """Write an animated GIF (Pillow writer) of motions playing side by side, one panel each.
 
