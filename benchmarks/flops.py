@@ -166,9 +166,10 @@ class HloFlops(dict):
 
 
 def hlo_matmul_flops(compiled_or_text) -> HloFlops:
-    """FLOPs of all dot instructions of an optimised HLO module, weighted by loop trip counts.
+    """FLOPs of all dot and convolution instructions of an optimised HLO module, weighted by loop trip counts.
 
-    A dot's FLOPs = 2 x (elements of its output) x (product of the lhs contracting dimensions). The
+    A dot's FLOPs = 2 x (elements of its output) x (product of the lhs contracting dimensions); a
+    convolution's = 2 x (elements of its output) x (kernel elements / output features). The
     multiplicity of a computation is the sum over its call sites of the caller's multiplicity, times the
     ``known_trip_count`` for a ``while`` body (1, and counted in ``unknown_trip_counts``, when XLA does not
     know it). Returns an :class:`HloFlops` dict.
@@ -238,6 +239,17 @@ def hlo_matmul_flops(compiled_or_text) -> HloFlops:
                         k *= lhs[int(d)]
                 flops = 2.0 * float(np.prod(out, dtype=np.float64)) * k
                 dots[name].append((inst, flops))
+            elif opcode == "convolution":
+                # each output element sums over the rhs (kernel) dims except its output-feature dim
+                out = shapes[inst] or ()
+                operands = re.findall(r"%([\w.\-]+)", rest.split(")")[0])
+                rhs = shapes.get(operands[1]) if len(operands) > 1 else None
+                labels = re.search(r"dim_labels=[^_]*_([0-9a-z]+)->", rest)
+                if rhs is not None and labels and "o" in labels.group(1):
+                    per_output = float(np.prod(rhs, dtype=np.float64)) / rhs[labels.group(1).index("o")]
+                    groups = re.search(r"batch_group_count=(\d+)", rest)
+                    per_output /= int(groups.group(1)) if groups else 1
+                    dots[name].append((inst, 2.0 * float(np.prod(out, dtype=np.float64)) * per_output))
 
     multiplicity: dict[str, float] = {}
 

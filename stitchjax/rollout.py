@@ -35,7 +35,8 @@ from stitchjax import networks
 from stitchjax import rotations as R
 from stitchjax import skeleton as skel
 
-__all__ = ["rollout", "forward_kinematics", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule", "GAUSSIAN_KEYS"]
+__all__ = ["rollout", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule",
+           "GAUSSIAN_KEYS"]
 
 GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend")
 
@@ -55,40 +56,6 @@ def schedule(config, length):
     h = length // 2
     k = jnp.minimum(config.model.stitch_buffer, h)
     return h, k, h + k, length - h + k
-
-
-@functools.lru_cache(maxsize=None)
-def _level_indices(parents: tuple):
-    """Joints and their parents per tree depth, padded (by repeating the last entry) to one width."""
-    levels = skel._levels(parents)
-    width = max((len(joints) for joints, _ in levels), default=1)
-    joints = [list(j) + [j[-1]] * (width - len(j)) for j, _ in levels]
-    pars = [list(p) + [p[-1]] * (width - len(p)) for _, p in levels]
-    return np.asarray(joints, np.int32).reshape(-1, width), np.asarray(pars, np.int32).reshape(-1, width)
-
-
-def forward_kinematics(local_rotations, local_positions, parents):
-    """Same result as ``skeleton.forward_kinematics`` (jnp only), as a ``lax.scan`` over tree depths.
-
-    (..., J, 4), (..., J, 3), static parents -> (global_rotations (..., J, 4), global_positions (..., J, 3)).
-    Each scan step gathers the parents of one depth's joints and writes those joints; the traced
-    program is one small loop body, so it compiles in ~1 s where the fully unrolled version takes
-    ~20 s on a CPU (and far longer under grad inside the train step).
-    """
-    joints, pars = _level_indices(tuple(parents))
-    if joints.shape[0] == 0:
-        return local_rotations, local_positions
-
-    def body(carry, idx):
-        grot, gpos = carry
-        j, p = idx
-        prot = jnp.take(grot, p, axis=-2)
-        rot = R.quat_mul(prot, jnp.take(local_rotations, j, axis=-2))
-        pos = R.quat_rotate(prot, jnp.take(local_positions, j, axis=-2)) + jnp.take(gpos, p, axis=-2)
-        return (grot.at[..., j, :].set(rot), gpos.at[..., j, :].set(pos)), None
-
-    (grot, gpos), _ = jax.lax.scan(body, (local_rotations, local_positions), (jnp.asarray(joints), jnp.asarray(pars)))
-    return grot, gpos
 
 
 def _phase(config, phase_params, state):
@@ -259,7 +226,7 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     # One FK call for the forward, backward and stitched sequences.
     all_rot = jnp.concatenate([fwd_all["rotations"], bwd_all["rotations"], rot], axis=0)
     all_root = jnp.concatenate([fwd_all["root"], bwd_all["root"], root], axis=0)
-    _, all_pos = forward_kinematics(all_rot, F.local_positions(offsets.astype(dtype), all_root), parents)
+    _, all_pos = skel.forward_kinematics(all_rot, F.local_positions(offsets.astype(dtype), all_root), parents)
     pos_fwd, pos_bwd, pos_stitched = all_pos[:n + 1], all_pos[n + 1:2 * (n + 1)], all_pos[2 * (n + 1):]
 
     def direction(seq_dir, positions, count):

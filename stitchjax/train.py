@@ -234,7 +234,9 @@ def state_dim(config) -> int:
 def abstract_train_state(config, mesh: Mesh | None = None) -> TrainState:
     """ShapeDtypeStructs (with replicated shardings) of the train state: the target for `restore`."""
     mesh = make_mesh() if mesh is None else mesh
-    return jax.eval_shape(lambda key: create_train_state(config, key, None, mesh), jax.random.PRNGKey(0))
+    shapes = jax.eval_shape(lambda key: create_train_state(config, key, None, mesh), jax.random.PRNGKey(0))
+    sharding = replicated(mesh)
+    return jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), shapes)
 
 
 # ---------------------------------------------------------------------------------------- train step
@@ -301,8 +303,8 @@ def make_update_step(config, mesh: Mesh | None = None,
         metrics.update({name: value for name, value in gen_terms.items() if name not in metrics})
         metrics.update({(name if name not in metrics else f"disc_{name}"): value
                         for name, value in disc_terms.items()})
-        metrics["gen_grad_norm"] = optax.global_norm(gen_grads)
-        metrics["disc_grad_norm"] = optax.global_norm(disc_grads)
+        metrics["gen_grad_norm"] = optax.tree.norm(gen_grads)
+        metrics["disc_grad_norm"] = optax.tree.norm(disc_grads)
         metrics = {name: jnp.asarray(value, jnp.float32) for name, value in metrics.items()}
         metrics["length"] = jnp.asarray(length, jnp.int32)
         new_state = state.replace(step=state.step + 1, params=new_params, gen_opt_state=gen_opt_state,
@@ -592,13 +594,26 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
     device_data = shard_dataset({k: v[local] for k, v in dataset.items()}, mesh)
     per_epoch = steps_per_epoch(num_windows, tc.batch_size)
     max_steps = total_steps(per_epoch, tc) if max_steps is None else int(max_steps)
+    buckets = [int(b) for b in tc.length_buckets or ()]
+    if buckets and max(buckets) < tc.max_length:
+        raise TrainingError(f"train.length_buckets={tuple(buckets)} must include a bucket >= train.max_length="
+                            f"{tc.max_length} (or set train.length_buckets= to mask one full-window step)")
     checkpoint_every = tc.checkpoint_every_steps or max(1, int(round(tc.checkpoint_every * per_epoch)))
 
     manager = checkpoints.open_manager(workdir, max_to_keep=tc.max_to_keep)
     log = MetricsLog(workdir / "metrics.jsonl", enabled=is_main)
     key = jax.random.PRNGKey(tc.seed)
     latest = manager.latest_step()
+    config_json = config_lib.to_dict(config)
     if latest is not None:
+        saved = checkpoints.read_config_json(workdir, latest)
+        changed = [section for section in ("data", "model", "loss", "phase")
+                   if saved.get(section) != config_json.get(section)]
+        if changed:
+            checkpoints.close(manager)
+            raise TrainingError(
+                f"{workdir} holds a run (step {latest}) whose {', '.join(changed)} config differs from this one; "
+                "resume with the same config and overrides (only train.* may change), or use a new --workdir")
         state, _, _ = checkpoints.restore(manager, abstract_train_state(config, mesh), latest)
         log.truncate_after(int(latest))
     else:
@@ -608,7 +623,6 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
             if is_main:
                 print(f"phase network pretrained: final loss {float(phase_loss):.4g}")
         state = create_train_state(config, key, phase_params, mesh)
-    config_json = config_lib.to_dict(config)
     extras = {"stats": stats_to_json(stats), "config_name": config_name}
     start_step = int(state.step)
 

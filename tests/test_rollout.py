@@ -101,17 +101,6 @@ def test_noise_gives_diverse_transitions(setup):
     np.testing.assert_array_equal(a["rotations"][:, 9], b["rotations"][:, 9])
 
 
-def test_level_scan_fk_matches_skeleton_fk():
-    rng = np.random.default_rng(3)
-    q = rng.normal(size=(2, 5, J, 4))
-    q /= np.linalg.norm(q, axis=-1, keepdims=True)
-    p = rng.normal(size=(2, 5, J, 3))
-    want_r, want_p = S.forward_kinematics(q, p, S.LAFAN1_PARENTS)
-    got_r, got_p = jax.jit(lambda a, b: RO.forward_kinematics(a, b, S.LAFAN1_PARENTS))(jnp.asarray(q), jnp.asarray(p))
-    np.testing.assert_allclose(got_r, want_r, atol=1e-5)
-    np.testing.assert_allclose(got_p, want_p, atol=1e-5)
-
-
 @pytest.mark.parametrize("switch", [
     "model.bidirectional=false", "model.latent_interpolation=false", "model.bidirectional_aligning=false",
     "model.phase_modulation=false"])

@@ -19,7 +19,7 @@ FRAMES = 10  # tiny windows: transitions of up to 8 frames
 TINY = [
     "model.encoder_widths=16,16,16", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
     "model.gating_widths=8,8", "model.disc_widths=16,16", "model.disc_long_window=4", "model.stitch_buffer=2",
-    "train.batch_size=4", "train.learning_rate=3e-3", "train.min_length=4", "train.max_length=8", "train.log_every=1",
+    "train.batch_size=4", "train.learning_rate=3e-3", "train.length_buckets=", "train.min_length=4", "train.max_length=8", "train.log_every=1",
     "train.checkpoint_every_steps=1", "phase.steps=20", "phase.batch_size=64", "phase.hidden_dim=16",
 ]
 
@@ -115,6 +115,16 @@ def test_resume_equals_one_run_and_writes_report(dataset, tmp_path):
     assert (tmp_path / "split" / "loss_curves.png").stat().st_size > 1000
 
 
+def test_resume_refuses_a_different_model_config(dataset, tmp_path):
+    data, stats = dataset
+    manager = checkpoints.open_manager(tmp_path)
+    checkpoints.save(manager, 5, {"step": jnp.int32(5)}, config_lib.to_dict(tiny_config()))
+    checkpoints.close(manager)
+    with pytest.raises(train.TrainingError, match="model config differs"):
+        train.train(tiny_config("model.latent_dim=8"), tmp_path, max_steps=6, dataset=data, stats=stats,
+                    progress=False)
+
+
 def test_nan_guard_names_the_term_and_keeps_last_good_checkpoint(dataset, tmp_path):
     data, stats = dataset
     config = tiny_config()
@@ -157,7 +167,10 @@ assert jax.device_count() == 4, jax.devices()
 config = config_lib.apply_overrides(config_lib.load_config("lafan1"), {tiny!r})
 data = dict(np.load({data!r}))
 mesh = train.make_mesh()
-state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
+initial = np.load({initial!r})  # the main process's initial state (saves compiling the init again)
+abstract = train.abstract_train_state(config, mesh)
+leaves, treedef = jax.tree.flatten(abstract)
+state = jax.tree.unflatten(treedef, [jax.device_put(initial[f"arr_{{i}}"], x.sharding) for i, x in enumerate(leaves)])
 step = train.make_train_step(config, mesh)
 device_data = train.shard_dataset(data, mesh)
 for _ in range(2):
@@ -175,13 +188,14 @@ def test_data_parallel_step_matches_single_device(dataset, tmp_path):
     config = tiny_config()
     mesh = train.make_mesh()
     state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
+    np.savez(tmp_path / "initial.npz", *jax.device_get(jax.tree.leaves(state)))
     step = train.make_train_step(config, mesh)
     device_data = train.shard_dataset(data, mesh)
     for _ in range(2):
         state, metrics = step(state, device_data, jnp.int32(6))
     env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=4", "JAX_PLATFORMS": "cpu"}
     script = DATA_PARALLEL_SCRIPT.format(repo=str(REPO), tiny=TINY, data=str(tmp_path / "data.npz"),
-                                         out=str(tmp_path / "out.npz"))
+                                         initial=str(tmp_path / "initial.npz"), out=str(tmp_path / "out.npz"))
     result = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr[-3000:]
     out = np.load(tmp_path / "out.npz")
