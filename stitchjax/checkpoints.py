@@ -119,19 +119,24 @@ def restore(manager: ocp.CheckpointManager, abstract_state: Any, step: int | Non
     return restored["state"], restored["config"], restored["extras"] or {}
 
 
+def saved_steps(workdir: str | os.PathLike) -> list[int]:
+    """Steps of the complete checkpoints of a run, ascending (orbax's temporary folders excluded)."""
+    directory = checkpoint_dir(workdir)
+    if not directory.is_dir():
+        return []
+    return sorted(int(p.name) for p in directory.iterdir() if p.is_dir() and p.name.isdigit())
+
+
 def read_config_json(workdir: str | os.PathLike, step: int | None = None) -> dict:
     """The config JSON saved with checkpoint `step` (default latest) of a run, without restoring arrays."""
-    manager = open_manager(workdir, read_only=True)
-    try:
-        step = manager.latest_step() if step is None else step
-        if step is None:
-            raise CheckpointError(f"no checkpoint found in {checkpoint_dir(workdir)}")
-        path = checkpoint_dir(workdir) / str(step) / "config" / "metadata"
-        if path.is_file():
-            return json.loads(path.read_text())
-        return manager.restore(int(step), args=ocp.args.Composite(config=ocp.args.JsonRestore()))["config"]
-    finally:
-        manager.close()
+    steps = saved_steps(workdir)
+    if not steps:
+        raise CheckpointError(f"no checkpoint found in {checkpoint_dir(workdir)}")
+    step = steps[-1] if step is None else int(step)
+    path = checkpoint_dir(workdir) / str(step) / "config" / "metadata"
+    if not path.is_file():
+        raise CheckpointError(f"{path} is missing: checkpoint {step} has no config (steps saved: {steps})")
+    return json.loads(path.read_text())
 
 
 def abstract_like(tree: Any) -> Any:

@@ -503,50 +503,12 @@ def noise_shape(model: Model, length: int) -> tuple:
     return (rollout_lib.num_steps(model.config, int(length)), 2, int(model.config.model.latent_dim))
 
 
-class _NoiseRandom:
-    """``jax.random`` whose ``normal`` returns given noise (see :func:`_rollout_with_noise`)."""
-
-    def __init__(self, noise):
-        self._noise = noise
-
-    def normal(self, key, shape, dtype=jnp.float32):
-        if tuple(shape) != tuple(self._noise.shape):
-            raise ValueError(f"noise has shape {self._noise.shape}, the rollout draws {tuple(shape)}")
-        return self._noise.astype(dtype)
-
-    def __getattr__(self, name):
-        return getattr(jax.random, name)
-
-
-class _NoiseJax:
-    def __init__(self, noise):
-        self.random = _NoiseRandom(noise)
-
-    def __getattr__(self, name):
-        return getattr(jax, name)
-
-
 def _rollout_with_noise(params, phase_params, start, target, offsets, noise, config, length):
-    """``rollout.rollout`` with its latent noise (n, 2, latent) given instead of drawn from a key.
-
-    rollout draws its noise with one ``jax.random.normal(key, (n, 2, latent))`` call; while this
-    function traces it, that call returns ``noise``. (Once rollout takes the noise as an argument,
-    that is used instead.)
-    """
-    import inspect
-
+    """``rollout.rollout`` with its latent noise (n, 2, latent) given instead of drawn from a key."""
     from stitchjax import rollout as rollout_lib
 
-    if "noise" in inspect.signature(rollout_lib.rollout).parameters:
-        return rollout_lib.rollout(params, phase_params, start, target, offsets, jax.random.PRNGKey(0), config,
-                                   length, length, noise=noise)
-    saved = rollout_lib.jax
-    rollout_lib.jax = _NoiseJax(noise)
-    try:
-        return rollout_lib.rollout(params, phase_params, start, target, offsets, jax.random.PRNGKey(0), config,
-                                   length, length)
-    finally:
-        rollout_lib.jax = saved
+    return rollout_lib.rollout(params, phase_params, start, target, offsets, jax.random.PRNGKey(0), config,
+                               length, length, noise=noise)
 
 
 @functools.lru_cache(maxsize=16)

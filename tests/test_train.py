@@ -20,7 +20,7 @@ TINY = [
     "model.encoder_widths=16,16,16", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
     "model.gating_widths=8,8", "model.disc_widths=16,16", "model.disc_long_window=4", "model.stitch_buffer=2",
     "train.batch_size=4", "train.learning_rate=3e-3", "train.length_buckets=", "train.min_length=4", "train.max_length=8", "train.log_every=1",
-    "train.checkpoint_every_steps=1", "phase.steps=20", "phase.batch_size=64", "phase.hidden_dim=16",
+    "train.checkpoint_every_steps=100", "phase.steps=20", "phase.batch_size=64", "phase.hidden_dim=16",
 ]
 
 
@@ -127,7 +127,7 @@ def test_resume_refuses_a_different_model_config(dataset, tmp_path):
 
 def test_nan_guard_names_the_term_and_keeps_last_good_checkpoint(dataset, tmp_path):
     data, stats = dataset
-    config = tiny_config()
+    config = tiny_config("train.checkpoint_every_steps=1")
     real_step = train.make_train_step(config)
 
     def poisoned_step(state, device_data, length):
@@ -144,7 +144,7 @@ def test_nan_guard_names_the_term_and_keeps_last_good_checkpoint(dataset, tmp_pa
 
 def test_sigterm_saves_current_step_and_stops(dataset, tmp_path):
     data, stats = dataset
-    config = tiny_config("train.checkpoint_every_steps=100")
+    config = tiny_config()
     real_step = train.make_train_step(config)
 
     def step_then_sigterm(state, device_data, length):
