@@ -23,43 +23,6 @@ LENGTH = 8  # every rollout below: 8 generated frames ...
 CANDIDATES = 4  # ... and 4 candidates per keyframe pair (plain 4 samples, or 2 samples x search 2)
 TOL_CM = 1e-4
 
-TINY = [
-    "model.encoder_widths=16,16,16", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
-    "model.gating_widths=8,8", "model.disc_widths=16,16", "model.disc_long_window=4", "model.stitch_buffer=2",
-    "phase.hidden_dim=8", "phase.num_layers=1", "train.max_length=8",
-]
-
-
-def tiny_config():
-    """The lafan1 config shrunk (overrides for fields this version lacks are skipped)."""
-    from stitchjax import config as config_lib
-
-    config = config_lib.load_config("lafan1")
-    for item in TINY:
-        try:
-            config = config_lib.apply_overrides(config, [item])
-        except config_lib.ConfigError:
-            pass
-    return config
-
-
-def save_tiny_checkpoint(workdir, seed=0):
-    """A freshly initialised tiny model written as a training run would write it; returns workdir."""
-    from stitchjax import checkpoints, config as config_lib, train
-
-    config = tiny_config()
-    state = train.create_train_state(config, jax.random.PRNGKey(seed))
-    manager = checkpoints.open_manager(workdir, async_save=False)
-    checkpoints.save(manager, 0, state, config_lib.to_dict(config), {"config_name": "tiny"})
-    checkpoints.close(manager)
-    return pathlib.Path(workdir)
-
-
-@pytest.fixture(scope="session")
-def tiny_run(tmp_path_factory):
-    return save_tiny_checkpoint(tmp_path_factory.mktemp("tiny_run"))
-
-
 @pytest.fixture(scope="session")
 def model(tiny_run):
     return inbetween.load_model(tiny_run)

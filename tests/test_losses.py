@@ -10,14 +10,8 @@ from stitchjax import losses as LS
 from stitchjax import networks as N
 from stitchjax import skeleton as S
 
-TINY = ["model.encoder_widths=16,16,8", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
-        "model.gating_widths=8", "model.disc_widths=16,8", "model.stitch_buffer=2"]
+
 B, T, J = 2, 12, 22
-
-
-def init_params(config, key):
-    """networks.init_params (eager: cheaper than compiling the initialisers on a CPU)."""
-    return N.init_params(config, key)
 
 
 def synthetic_batch(seed=0):
@@ -63,8 +57,8 @@ def test_elementary_terms():
 def setup():
     from stitchjax import phase
 
-    config = C.apply_overrides(C.Config(), TINY)
-    params = init_params(config, jax.random.PRNGKey(0))
+    config = C.load_config("tiny")
+    params = N.init_params(config, jax.random.PRNGKey(0))
     phase_params = phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config), config)
     return config, params, phase_params, synthetic_batch()
 

@@ -6,22 +6,16 @@ import numpy as np
 from stitchjax import config as C
 from stitchjax import networks as N
 
-TINY = ["model.encoder_widths=16,16,8", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
-        "model.gating_widths=8", "model.disc_widths=16,8", "model.stitch_buffer=2"]
 
-
-def init_params(config, key):
-    """networks.init_params (eager: cheaper than compiling the initialisers on a CPU)."""
-    return N.init_params(config, key)
 
 
 def tiny_config(*extra):
-    return C.apply_overrides(C.Config(), TINY + list(extra))
+    return C.apply_overrides(C.load_config("tiny"), list(extra))
 
 
 def test_init_params_and_generator_shapes():
     config = tiny_config()
-    params = init_params(config, jax.random.PRNGKey(0))
+    params = N.init_params(config, jax.random.PRNGKey(0))
     assert set(params) == {"forward", "backward", "disc_short", "disc_long"}
     kernel = params["forward"]["params"]["current_head"]["kernel"]
     assert not np.allclose(kernel, params["backward"]["params"]["current_head"]["kernel"])  # independent
@@ -43,8 +37,8 @@ def test_init_params_and_generator_shapes():
 
 
 def test_discriminator_scores_one_per_window_position():
-    config = tiny_config()
-    params = init_params(config, jax.random.PRNGKey(0))
+    config = tiny_config("model.disc_long_window=10")  # the paper's 2- and 10-frame windows
+    params = N.init_params(config, jax.random.PRNGKey(0))
     feats = jnp.ones((2, 12, N.disc_feature_dim(config)))
     short = N.make_discriminator(config, "disc_short").apply(params["disc_short"], feats)
     long = N.make_discriminator(config, "disc_long").apply(params["disc_long"], feats)
@@ -85,7 +79,7 @@ def test_blend_gaussians_endpoints_and_modes():
 
 
 def test_plain_decoder_without_phase_modulation():
-    with_phase = init_params(tiny_config(), jax.random.PRNGKey(0))["forward"]["params"]
-    plain = init_params(tiny_config("model.phase_modulation=false"), jax.random.PRNGKey(0))["forward"]["params"]
+    with_phase = N.init_params(tiny_config(), jax.random.PRNGKey(0))["forward"]["params"]
+    plain = N.init_params(tiny_config("model.phase_modulation=false"), jax.random.PRNGKey(0))["forward"]["params"]
     assert "gating" in with_phase and "expert_0" in with_phase and "decoder" not in with_phase
     assert "gating" not in plain and "expert_0" not in plain and "decoder" in plain

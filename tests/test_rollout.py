@@ -10,18 +10,12 @@ from stitchjax import networks as N
 from stitchjax import rollout as RO
 from stitchjax import skeleton as S
 
-TINY = ["model.encoder_widths=16,16,8", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
-        "model.gating_widths=8", "model.disc_widths=16,8", "model.stitch_buffer=2"]
+
 B, T, J = 2, 12, 22
 
 
-def init_params(config, key):
-    """networks.init_params (eager: cheaper than compiling the initialisers on a CPU)."""
-    return N.init_params(config, key)
-
-
 def tiny_config(*extra):
-    return C.apply_overrides(C.Config(), TINY + list(extra))
+    return C.apply_overrides(C.load_config("tiny"), list(extra))
 
 
 def synthetic_batch(seed=0, batch=B, frames=T):
@@ -46,7 +40,7 @@ def phase_params_for(config):
 @pytest.fixture(scope="module")
 def setup():
     config = tiny_config()
-    params = init_params(config, jax.random.PRNGKey(0))
+    params = N.init_params(config, jax.random.PRNGKey(0))
     phase_params = phase_params_for(config)
     fn = jax.jit(lambda p, pp, b, k, length: RO.rollout_batch(p, pp, b, k, config, length))
     return config, params, phase_params, synthetic_batch(), fn
@@ -108,9 +102,9 @@ def test_each_ablation_runs_and_changes_the_output(setup, switch):
     config, params, phase_params, batch, fn = setup
     ablated = tiny_config(switch)
     if switch.startswith("model.phase_modulation"):
-        params = init_params(ablated, jax.random.PRNGKey(0))
+        params = N.init_params(ablated, jax.random.PRNGKey(0))
     length = jnp.int32(8)
-    full = fn(params if "phase" not in switch else init_params(config, jax.random.PRNGKey(0)),
+    full = fn(params if "phase" not in switch else N.init_params(config, jax.random.PRNGKey(0)),
               phase_params, batch, jax.random.PRNGKey(1), length)
     out = jax.jit(lambda p, pp, b, k, n: RO.rollout_batch(p, pp, b, k, ablated, n))(
         params, phase_params, batch, jax.random.PRNGKey(1), length)

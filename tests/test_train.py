@@ -16,16 +16,8 @@ from stitchjax import checkpoints, config as config_lib, train
 REPO = pathlib.Path(__file__).resolve().parent.parent
 FRAMES = 10  # tiny windows: transitions of up to 8 frames
 
-TINY = [
-    "model.encoder_widths=16,16,16", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
-    "model.gating_widths=8,8", "model.disc_widths=16,16", "model.disc_long_window=4", "model.stitch_buffer=2",
-    "train.batch_size=4", "train.learning_rate=3e-3", "train.length_buckets=", "train.min_length=4", "train.max_length=8", "train.log_every=1",
-    "train.checkpoint_every_steps=100", "phase.steps=20", "phase.batch_size=64", "phase.hidden_dim=16",
-]
-
-
 def tiny_config(*extra):
-    return config_lib.apply_overrides(config_lib.load_config("lafan1"), TINY + list(extra))
+    return config_lib.apply_overrides(config_lib.load_config("tiny"), list(extra))
 
 
 @pytest.fixture(scope="module")
@@ -164,7 +156,7 @@ import jax, jax.numpy as jnp, numpy as np, sys
 sys.path.insert(0, {repo!r})
 from stitchjax import config as config_lib, train
 assert jax.device_count() == 4, jax.devices()
-config = config_lib.apply_overrides(config_lib.load_config("lafan1"), {tiny!r})
+config = config_lib.load_config("tiny")
 data = dict(np.load({data!r}))
 mesh = train.make_mesh()
 initial = np.load({initial!r})  # the main process's initial state (saves compiling the init again)
@@ -194,7 +186,7 @@ def test_data_parallel_step_matches_single_device(dataset, tmp_path):
     for _ in range(2):
         state, metrics = step(state, device_data, jnp.int32(6))
     env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=4", "JAX_PLATFORMS": "cpu"}
-    script = DATA_PARALLEL_SCRIPT.format(repo=str(REPO), tiny=TINY, data=str(tmp_path / "data.npz"),
+    script = DATA_PARALLEL_SCRIPT.format(repo=str(REPO), data=str(tmp_path / "data.npz"),
                                          initial=str(tmp_path / "initial.npz"), out=str(tmp_path / "out.npz"))
     result = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr[-3000:]
