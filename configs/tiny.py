@@ -10,7 +10,6 @@ from stitchjax.config import Config, load_config
 
 def get_config() -> Config:
     base = load_config(str(pathlib.Path(__file__).with_name("lafan1.py")))
-    data = dataclasses.replace(base.data, window=10, offset=5)  # transitions of up to 8 frames
     model = dataclasses.replace(
         base.model,
         encoder_widths=(16, 16, 16), lstm_size=16, latent_dim=4, decoder_widths=(16, 16),
@@ -22,4 +21,4 @@ def get_config() -> Config:
         log_every=1, checkpoint_every_steps=100,
     )
     phase = dataclasses.replace(base.phase, steps=20, batch_size=64, hidden_dim=16, num_layers=1)
-    return dataclasses.replace(base, name="tiny", data=data, model=model, train=train, phase=phase)
+    return dataclasses.replace(base, name="tiny", model=model, train=train, phase=phase)

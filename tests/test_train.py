@@ -71,7 +71,7 @@ def test_tiny_model_overfits_one_batch(dataset):
     step = train.make_train_step(config, mesh)
     device_data = _device_data(one_batch, mesh)
     losses = []
-    for _ in range(200):
+    for _ in range(300):
         state, metrics = step(state, device_data, jnp.int32(8))
         losses.append(float(metrics["loss"]))
     first, last = np.mean(losses[:5]), np.mean(losses[-5:])
