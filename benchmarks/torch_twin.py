@@ -268,7 +268,10 @@ class Twin:
             if m.phase_modulation:
                 load_mlp(g.gating, p["gating"])
                 for i, layer in enumerate(g.experts):
-                    layer.weight.copy_(t(p[f"expert_{i}"]["kernel"]))
+                    kernel = t(p[f"expert_{i}"]["kernel"])
+                    if tuple(kernel.shape) != tuple(layer.weight.shape):  # stored (in, E, out): 2-D matmul layout
+                        kernel = kernel.permute(1, 0, 2)
+                    layer.weight.copy_(kernel)
                     layer.bias.copy_(t(p[f"expert_{i}"]["bias"]))
             else:
                 load_mlp(g.decoder, p["decoder"])
