@@ -55,7 +55,7 @@ def test_moe_einsum_equals_blended_weights():
     kernel, bias = params["params"]["kernel"], params["params"]["bias"]
     explicit = []
     for i in range(3):
-        w = sum(coefficients[i, e] * kernel[e] for e in range(4))
+        w = sum(coefficients[i, e] * kernel[:, e] for e in range(4))
         bb = sum(coefficients[i, e] * bias[e] for e in range(4))
         explicit.append(x[i] @ w + bb)
     np.testing.assert_allclose(got, np.stack(explicit), rtol=1e-5, atol=1e-5)
