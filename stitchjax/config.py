@@ -7,7 +7,7 @@ load them with :func:`load_config` and change fields with :func:`apply_overrides
 
     config = apply_overrides(load_config("lafan1"), ["model.latent_dim=32", "train.batch_size=8"])
 
-Transition-length convention (CONTRACTS): L = number of generated in-between frames; the start
+Transition-length convention (DESIGN.md §6): L = number of generated in-between frames; the start
 keyframe is frame 0 of a training window and the target keyframe is frame L + 1.
 """
 from __future__ import annotations
@@ -104,14 +104,14 @@ class TrainConfig:
     max_length: int = 48  # reason: 50-frame windows hold 48 in-betweens + 2 keyframes (paper's "50")
     length_step: int = 1  # paper: +1 ...
     epochs_per_length: int = 2  # paper: ... every 2 epochs
-    length_counts_keyframes: bool = False  # reason: CONTRACTS: L counts generated frames only
+    length_counts_keyframes: bool = False  # reason: DESIGN.md §6 scores L generated frames between the keyframes
     num_epochs: int = 100  # reason: (5 -> 48 takes 86 epochs) + some epochs at the full length
     seed: int = 0  # reason: reproducibility
     log_every: int = 100  # reason: steps between metric logs
     checkpoint_every: int = 1  # reason: epochs between checkpoints
     max_to_keep: int = 3  # reason: orbax CheckpointManager retention
     output_dir: str = "runs"  # reason: checkpoints + config land in output_dir/<name>
-    # --- fields added by the train helper (stitchjax/train.py) ---
+    # --- run control (stitchjax/train.py) ---
     max_steps: int = 0  # reason: 0 = num_epochs epochs; > 0 caps the run (bin/train --max-steps)
     checkpoint_every_steps: int = 0  # reason: > 0 overrides checkpoint_every (epochs) with a step count
     length_buckets: tuple = (12, 24, 48)  # reason: static scan lengths (window cut to bucket + 2 frames,
