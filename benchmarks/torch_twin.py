@@ -259,19 +259,16 @@ class Twin:
             for enc in ("state_encoder", "offset_encoder", "target_encoder"):
                 load_mlp(getattr(g, enc), p[enc])
             lstm = p["lstm"]
-            g.lstm.weight_ih.copy_(torch.cat([t(lstm[f"i{c}"]["kernel"]).T for c in "ifgo"], 0))
-            g.lstm.weight_hh.copy_(torch.cat([t(lstm[f"h{c}"]["kernel"]).T for c in "ifgo"], 0))
-            g.lstm.bias_hh.copy_(torch.cat([t(lstm[f"h{c}"]["bias"]) for c in "ifgo"], 0))
+            g.lstm.weight_ih.copy_(t(lstm["input_kernel"]).T)  # fused gates, order i, f, g, o in both
+            g.lstm.weight_hh.copy_(t(lstm["hidden_kernel"]).T)
+            g.lstm.bias_hh.copy_(t(lstm["bias"]))
             g.lstm.bias_ih.zero_()
             load_linear(g.current_head, p["current_head"])
             load_linear(g.target_head, p["target_head"])
             if m.phase_modulation:
                 load_mlp(g.gating, p["gating"])
                 for i, layer in enumerate(g.experts):
-                    kernel = t(p[f"expert_{i}"]["kernel"])
-                    if tuple(kernel.shape) != tuple(layer.weight.shape):  # stored (in, E, out): 2-D matmul layout
-                        kernel = kernel.permute(1, 0, 2)
-                    layer.weight.copy_(kernel)
+                    layer.weight.copy_(t(p[f"expert_{i}"]["kernel"]).permute(1, 0, 2))  # (in, E, out) -> (E, in, out)
                     layer.bias.copy_(t(p[f"expert_{i}"]["bias"]))
             else:
                 load_mlp(g.decoder, p["decoder"])

@@ -114,6 +114,9 @@ class TrainConfig:
     # --- run control (stitchjax/train.py) ---
     max_steps: int = 0  # reason: 0 = num_epochs epochs; > 0 caps the run (bin/train --max-steps)
     checkpoint_every_steps: int = 0  # reason: > 0 overrides checkpoint_every (epochs) with a step count
+    weight_gradients_after_scan: bool = True  # reason: same gradients, faster: each generator kernel's
+    # gradient is one matmul over all rollout steps after the scan, not one small matmul per step inside
+    # it (rollout.py docstring; benchmarks/README.md has the measured difference)
     length_buckets: tuple = (12, 24, 48)  # reason: static scan lengths (window cut to bucket + 2 frames,
     # one compile each) instead of one traced length masked in the full window. Measured on 2 loaded CPU
     # cores, lafan1 model, batch 32 (benchmarks/train_step.py): window 50 = 6.26 s/step, 96 s compile;

@@ -10,7 +10,12 @@ Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step:
              ─► (root velocity 3, quaternion update J*4, contact logits C)
 
 The expert blend mixes each layer's expert *outputs* (``einsum`` over the expert axis), never a blended
-weight matrix per example. Discriminators (RMIB style): a temporal convolution whose kernel spans the
+weight matrix per example.
+
+Every generator matmul goes through :func:`kernel_matmul`, so the rollout can take the weight gradients out
+of its scan (``model.weight_gradients_after_scan``, see ``rollout.py``): under a ``"probes"`` variable
+collection each product ``x @ W`` gets a zero probe added and records its input ``x``; the probe's
+gradient is the product's output gradient, and ``dW = sum over steps of x^T dy`` becomes one large matmul. Discriminators (RMIB style): a temporal convolution whose kernel spans the
 whole window (2 or 10 frames) over per-frame features, then dense layers; one score per window position.
 """
 from __future__ import annotations
@@ -22,7 +27,7 @@ import jax
 import jax.numpy as jnp
 
 __all__ = [
-    "MLP", "MoEDense", "Generator", "Discriminator", "init_params", "make_generator",
+    "kernel_matmul", "Dense", "LSTMCell", "MLP", "MoEDense", "Generator", "Discriminator", "init_params", "make_generator",
     "make_discriminator", "initial_carry", "blend_gaussians", "disc_feature_dim", "phase_dim",
     "generator_input_dims",
 ]
@@ -38,6 +43,66 @@ def activation_fn(name: str):
         raise ValueError(f"unknown activation {name!r}; use one of {', '.join(_ACTIVATIONS)}") from None
 
 
+def kernel_matmul(module: nn.Module, x, kernel, name: str):
+    """``x @ kernel`` (kernel (in, ...) flattened to (in, out)) for ``module``'s parameter ``name``.
+
+    Plain matmul, unless the apply call passes a ``"probes"`` collection holding ``name`` for this module
+    (gradient probing, used by ``rollout.rollout_batch``): then the kernel is held constant, a zero probe
+    (..., out) is added to the product and the input x is stored in the mutable ``"inputs"`` collection.
+    The caller recovers the kernel gradient as x^T (gradient of the probe).
+    """
+    flat = kernel.reshape(kernel.shape[0], -1)
+    if not module.has_variable("probes", name):
+        return x @ flat
+    module.put_variable("inputs", name, x)
+    return x @ jax.lax.stop_gradient(flat) + module.get_variable("probes", name)
+
+
+class Dense(nn.Module):
+    """Dense layer x (..., in) -> (..., features), flax ``nn.Dense`` initialisation and parameter names."""
+
+    features: int
+
+    @nn.compact
+    def __call__(self, x):
+        kernel = self.param("kernel", nn.initializers.lecun_normal(), (x.shape[-1], self.features))
+        bias = self.param("bias", nn.initializers.zeros, (self.features,))
+        return kernel_matmul(self, x, kernel, "kernel") + bias
+
+
+def _orthogonal_blocks(key, shape, dtype=jnp.float32):
+    """(H, n * H) kernel made of n independent orthogonal (H, H) blocks (one per LSTM gate)."""
+    rows, cols = shape
+    keys = jax.random.split(key, cols // rows)
+    return jnp.concatenate([nn.initializers.orthogonal()(k, (rows, rows), dtype) for k in keys], axis=1)
+
+
+class LSTMCell(nn.Module):
+    """LSTM cell with fused gate kernels: carry (c, h) each (..., H), x (..., in) -> (carry, h).
+
+    gates = x @ input_kernel (in, 4H) + h @ hidden_kernel (H, 4H) + bias (4H), gate order i, f, g, o;
+    c' = sigmoid(f) c + sigmoid(i) tanh(g), h' = sigmoid(o) tanh(c'). Initialisation as flax's LSTM
+    cells (LeCun normal input kernel, orthogonal hidden kernel per gate, zero bias). Two matmuls per
+    step and no per-gate concatenation inside the rollout's scan.
+    """
+
+    features: int
+
+    @nn.compact
+    def __call__(self, carry, x):
+        c, h = carry
+        hidden = self.features
+        input_kernel = self.param("input_kernel", nn.initializers.lecun_normal(), (x.shape[-1], 4 * hidden))
+        hidden_kernel = self.param("hidden_kernel", _orthogonal_blocks, (hidden, 4 * hidden))
+        bias = self.param("bias", nn.initializers.zeros, (4 * hidden,))
+        gates = (kernel_matmul(self, x, input_kernel, "input_kernel")
+                 + kernel_matmul(self, h, hidden_kernel, "hidden_kernel") + bias)
+        i, f, g, o = jnp.split(gates, 4, axis=-1)
+        c = jax.nn.sigmoid(f) * c + jax.nn.sigmoid(i) * jnp.tanh(g)
+        h = jax.nn.sigmoid(o) * jnp.tanh(c)
+        return (c, h), h
+
+
 class MLP(nn.Module):
     """Dense layers of the given widths; activation after every layer but (optionally) the last."""
 
@@ -49,7 +114,7 @@ class MLP(nn.Module):
     def __call__(self, x):
         act = activation_fn(self.activation)
         for i, width in enumerate(self.widths):
-            x = nn.Dense(width, name=f"dense_{i}")(x)
+            x = Dense(width, name=f"dense_{i}")(x)
             if self.activate_last or i < len(self.widths) - 1:
                 x = act(x)
         return x
@@ -74,7 +139,7 @@ class MoEDense(nn.Module):
                                                 batch_axis=(1,))
         kernel = self.param("kernel", init, (x.shape[-1], self.num_experts, self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.num_experts, self.features))
-        flat = x @ kernel.reshape(x.shape[-1], self.num_experts * self.features)
+        flat = kernel_matmul(self, x, kernel, "kernel")
         expert_outputs = flat.reshape(x.shape[:-1] + (self.num_experts, self.features)) + bias
         return jnp.einsum("...e,...eo->...o", coefficients, expert_outputs)
 
@@ -124,9 +189,9 @@ class Generator(nn.Module):
         e_offset = MLP(tuple(m.encoder_widths), m.activation, name="offset_encoder")(offset)
         e_target = MLP(tuple(m.encoder_widths), m.activation, name="target_encoder")(target)
         x = jnp.concatenate([e_state, e_offset, e_target], axis=-1)
-        carry, h = nn.OptimizedLSTMCell(m.lstm_size, name="lstm")(carry, x)
-        current_head = nn.Dense(2 * latent, name="current_head")(h)
-        target_head = nn.Dense(2 * latent, name="target_head")(h)
+        carry, h = LSTMCell(m.lstm_size, name="lstm")(carry, x)
+        current_head = Dense(2 * latent, name="current_head")(h)
+        target_head = Dense(2 * latent, name="target_head")(h)
         mu, logvar = current_head[..., :latent], current_head[..., latent:]
         mu_t, logvar_t = target_head[..., :latent], target_head[..., latent:]
         if m.latent_interpolation:

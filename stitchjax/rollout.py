@@ -21,10 +21,18 @@ never recompiles. Once a generator has made its frames it holds its last frame (
 targets). The backward sequence uses its own time direction: its root velocities are reversed-time
 velocities; a backward frame used as the forward generator's target gets its velocity negated.
 Latent interpolation weight for the step that makes the n-th frame of a direction: gamma = n / (L + 1).
+
+Gradients (``train.weight_gradients_after_scan``, on by default): differentiating a ``lax.scan`` makes
+every backward step form and accumulate its own weight gradient x^T dy from one step's few rows (B = 32),
+a matmul CPUs and GPUs run far below their peak. :func:`rollout_batch` instead holds the generators'
+kernels constant inside the scan, adds a zero probe to every product and records the product's input
+(``networks.kernel_matmul``); the probes' gradients are the products' output gradients, and after the
+scan each kernel's gradient is ONE matmul over all B x steps rows. Same numbers, less time.
 """
 from __future__ import annotations
 
 import functools
+from collections.abc import Mapping
 
 import jax
 import jax.numpy as jnp
@@ -36,7 +44,7 @@ from stitchjax import rotations as R
 from stitchjax import skeleton as skel
 
 __all__ = ["rollout", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule",
-           "GAUSSIAN_KEYS"]
+           "zero_probes", "kernel_gradients", "GAUSSIAN_KEYS"]
 
 GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend")
 
@@ -68,8 +76,12 @@ def _phase(config, phase_params, state):
     return phase_lib.phase_features(phase_params, state)
 
 
-def _step(params, phase_params, config, carry, current, target, distance, gamma, eps):
-    """One generator step: frame dicts (rotations (J,4), root (3,), velocity (3,), contacts (C,))."""
+def _step(params, phase_params, config, carry, current, target, distance, gamma, eps, probes=None):
+    """One generator step: frame dicts (rotations (J,4), root (3,), velocity (3,), contacts (C,)).
+
+    probes: None, or this step's zero probes for the generator's kernels (see :func:`zero_probes`);
+    then the fourth output holds the inputs of its kernel matmuls (else None).
+    """
     data = config.data
     state = F.state_vector(current["rotations"], current["velocity"], current["contacts"])
     target_state = F.state_vector(target["rotations"], target["velocity"], target["contacts"])
@@ -78,8 +90,14 @@ def _step(params, phase_params, config, carry, current, target, distance, gamma,
     if config.model.time_to_target_input:
         offset = jnp.concatenate([offset, (distance / data.fps)[None].astype(offset.dtype)])
     phase = _phase(config, phase_params, state)
-    carry, out = networks.make_generator(config).apply(params, carry, state, target_state, offset, gamma,
-                                                       phase, eps)
+    generator = networks.make_generator(config)
+    args = (carry, state, target_state, offset, gamma, phase, eps)
+    if probes is None:
+        carry, out = generator.apply(params, *args)
+        inputs = None
+    else:
+        (carry, out), recorded = generator.apply({**params, "probes": probes}, *args, mutable=["inputs"])
+        inputs = recorded["inputs"]
     update = out["rotation_update"].reshape(current["rotations"].shape)
     velocity = out["velocity"]
     frame = {
@@ -88,7 +106,7 @@ def _step(params, phase_params, config, carry, current, target, distance, gamma,
         "velocity": velocity,
         "contacts": jax.nn.sigmoid(out["contact_logits"]),
     }
-    return carry, frame, {k: out[k] for k in GAUSSIAN_KEYS}
+    return carry, frame, {k: out[k] for k in GAUSSIAN_KEYS}, inputs
 
 
 def _reverse(frame):
@@ -108,7 +126,8 @@ def _stack_first(first, rest):
     return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b], axis=0), first, rest)
 
 
-def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int, noise=None):
+def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int, noise=None,
+            probes=None):
     """Generate one transition.
 
     Args:
@@ -123,6 +142,9 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
       max_length: static maximum L (training: window - 2).
       noise: optional (num_steps(config, max_length), 2, latent_dim) standard normal latent noise
         ([:, 0] forward, [:, 1] backward) used instead of drawing it from ``key`` (latent search).
+      probes: optional {"forward", "backward"} zero probes with a leading (num_steps,) axis
+        (:func:`zero_probes`); then the result is (dict, inputs), inputs = the generators' kernel-matmul
+        inputs per step, {"forward", "backward"} trees of (num_steps, in) arrays (:func:`kernel_gradients`).
     Returns dict (T_out = max_length + 2):
       "rotations" (T_out, J, 4), "root_positions" (T_out, 3), "contacts" (T_out, C),
       "global_positions" (T_out, J, 3): the stitched motion, frame 0 = start and frame L + 1 = target
@@ -160,32 +182,34 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     carry0 = networks.initial_carry(config, dtype)
 
     def body(carry, xs):
-        i, eps_i = xs
+        i, eps_i, probes_i = xs
+        probe = (lambda name: None) if probes_i is None else probes_i.get
         fwd_carry, bwd_carry, fwd, bwd = carry
         gamma = jnp.clip((i + 1).astype(dtype) / total, 0.0, 1.0)
         if bidir and aligned:
             f_target, f_dist = _reverse(bwd), length + 1 - 2 * i
         else:
             f_target, f_dist = target_frame, length + 1 - i
-        new_carry, new_fwd, g_fwd = _step(gen_params["forward"], phase_params, config, fwd_carry, fwd,
-                                          f_target, f_dist, gamma, eps_i[0])
+        new_carry, new_fwd, g_fwd, inputs = _step(gen_params["forward"], phase_params, config, fwd_carry, fwd,
+                                                  f_target, f_dist, gamma, eps_i[0], probe("forward"))
         valid = i < n_fwd
         fwd_carry, fwd = _hold(valid, (new_carry, new_fwd), (fwd_carry, fwd))
-        out = {"forward": {**fwd, **g_fwd}}
+        out = {"forward": {**fwd, **g_fwd}, "inputs": {"forward": inputs}}
         if bidir:
             if aligned:
                 b_target, b_dist = _reverse(fwd), length - 2 * i
             else:
                 b_target, b_dist = start_frame, length + 1 - i
-            new_carry, new_bwd, g_bwd = _step(gen_params["backward"], phase_params, config, bwd_carry, bwd,
-                                              b_target, b_dist, gamma, eps_i[1])
+            new_carry, new_bwd, g_bwd, inputs = _step(gen_params["backward"], phase_params, config, bwd_carry,
+                                                      bwd, b_target, b_dist, gamma, eps_i[1], probe("backward"))
             valid = i < n_bwd
             bwd_carry, bwd = _hold(valid, (new_carry, new_bwd), (bwd_carry, bwd))
             out["backward"] = {**bwd, **g_bwd}
+            out["inputs"]["backward"] = inputs
         return (fwd_carry, bwd_carry, fwd, bwd), out
 
     init = (carry0, carry0, start_frame, target_frame)
-    _, seq = jax.lax.scan(body, init, (steps, eps))
+    _, seq = jax.lax.scan(body, init, (steps, eps, probes))
 
     # Sequences including their keyframe at entry 0: fwd_all[t] = frame t, bwd_all[r] = frame L + 1 - r.
     frame_keys = ("rotations", "root", "velocity", "contacts")
@@ -254,6 +278,8 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         "backward_positions": jnp.take(pos_bwd, length + 1 - frames, axis=0, mode="clip"),
         "mask": overlap_mask,
     }
+    if probes is not None:
+        return result, {name: inputs for name, inputs in seq["inputs"].items() if inputs is not None}
     return result
 
 
@@ -276,6 +302,8 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
 
     Keyframes: frame 0 and frame ``length + 1`` of each window; max_length defaults to T - 2.
     Per-example noise from ``jax.random.split(key, B)``. Returns rollout's dict with a leading B axis.
+    Differentiable in gen_params, phase_params and the batch; with ``train.weight_gradients_after_scan``
+    the generators' kernel gradients are formed after the scan (module docstring), same values.
     """
     num_frames = batch["rotations"].shape[1]
     max_length = num_frames - 2 if max_length is None else int(max_length)
@@ -283,6 +311,85 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
         raise ValueError(f"max_length={max_length} needs windows of {max_length + 2} frames, batch has {num_frames}")
     start, target, offsets = keyframes_from_batch(batch, length)
     keys = jax.random.split(key, batch["rotations"].shape[0])
-    fn = functools.partial(rollout, config=config, max_length=max_length)
-    return jax.vmap(lambda s, t, o, k_: fn(gen_params, phase_params, s, t, o, k_, length=length))(
-        start, target, offsets, keys)
+    generators = {name: gen_params[name] for name in ("forward", "backward")}
+    length = jnp.asarray(length, jnp.int32)
+    if config.train.weight_gradients_after_scan:
+        return _rollout_batch_probed(generators, phase_params, start, target, offsets, keys, length, config,
+                                     max_length)
+    return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, config, max_length)
+
+
+def _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, config, max_length,
+                     probes=None):
+    def one(s, t, o, k, p):
+        return rollout(generators, phase_params, s, t, o, k, config, length, max_length, probes=p)
+
+    return jax.vmap(one)(start, target, offsets, keys, probes)
+
+
+_KERNEL_NAMES = ("kernel", "input_kernel", "hidden_kernel")  # networks.kernel_matmul parameter names
+
+
+def _kernels(tree: dict, fn) -> dict:
+    """The sub-tree of ``tree`` (nested dicts) whose leaves are kernels, with ``fn`` applied to them."""
+    out = {}
+    for name, value in tree.items():
+        if isinstance(value, Mapping):
+            out[name] = _kernels(value, fn)
+        elif name in _KERNEL_NAMES:
+            out[name] = fn(value)
+    return out
+
+
+def zero_probes(generators: dict, leading: tuple) -> dict:
+    """Zero probes {"forward", "backward"}: per kernel (in, ...) of each generator a (*leading, out) array,
+    out = kernel.size // in (an expert kernel (in, E, out') flattens to E * out')."""
+    return {name: _kernels(params["params"], lambda k: jnp.zeros(leading + (k.size // k.shape[0],), k.dtype))
+            for name, params in generators.items()}
+
+
+def kernel_gradients(generators: dict, inputs: dict, probe_grads: dict) -> dict:
+    """Kernel gradients {name: {"params": tree of kernel-shaped arrays}}: sum over all leading axes of
+    x^T dy, with x the recorded matmul inputs (..., in) and dy the probes' gradients (..., out)."""
+    result = {}
+    for name, recorded in inputs.items():
+        kernels = _kernels(generators[name]["params"], lambda k: k)
+        result[name] = {"params": jax.tree.map(
+            lambda k, x, dy: jnp.einsum("...i,...o->io", x, dy.astype(x.dtype)).reshape(k.shape).astype(k.dtype),
+            kernels, recorded, probe_grads[name])}
+    return result
+
+
+def _add_kernel_gradients(grads: dict, kernel_grads: dict) -> dict:
+    """grads with the arrays of the (sub-)tree kernel_grads added at the same places."""
+    out = dict(grads)
+    for name, value in kernel_grads.items():
+        out[name] = _add_kernel_gradients(grads[name], value) if isinstance(value, Mapping) else grads[name] + value
+    return out
+
+
+@functools.partial(jax.custom_vjp, nondiff_argnums=(7, 8))
+def _rollout_batch_probed(generators, phase_params, start, target, offsets, keys, length, config, max_length):
+    return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, config, max_length)
+
+
+def _probed_forward(generators, phase_params, start, target, offsets, keys, length, config, max_length):
+    leading = (keys.shape[0], num_steps(config, max_length))
+    probes = zero_probes(generators, leading)
+
+    def probed(generators, phase_params, start, target, offsets, probes):
+        return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, config,
+                                max_length, probes)
+
+    out, vjp_fn, inputs = jax.vjp(probed, generators, phase_params, start, target, offsets, probes, has_aux=True)
+    return out, (vjp_fn, generators, inputs)
+
+
+def _probed_backward(config, max_length, residuals, cotangent):
+    vjp_fn, generators, inputs = residuals
+    d_generators, d_phase, d_start, d_target, d_offsets, d_probes = vjp_fn(cotangent)
+    d_generators = _add_kernel_gradients(d_generators, kernel_gradients(generators, inputs, d_probes))
+    return d_generators, d_phase, d_start, d_target, d_offsets, None, None
+
+
+_rollout_batch_probed.defvjp(_probed_forward, _probed_backward)

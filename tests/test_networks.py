@@ -83,3 +83,45 @@ def test_plain_decoder_without_phase_modulation():
     plain = N.init_params(tiny_config("model.phase_modulation=false"), jax.random.PRNGKey(0))["forward"]["params"]
     assert "gating" in with_phase and "expert_0" in with_phase and "decoder" not in with_phase
     assert "gating" not in plain and "expert_0" not in plain and "decoder" in plain
+
+
+def test_lstm_cell_matches_the_lstm_equations():
+    cell = N.LSTMCell(features=3)
+    x = jax.random.normal(jax.random.PRNGKey(1), (2, 5))
+    carry = (jax.random.normal(jax.random.PRNGKey(2), (2, 3)), jax.random.normal(jax.random.PRNGKey(3), (2, 3)))
+    params = cell.init(jax.random.PRNGKey(0), carry, x)
+    p = jax.tree.map(lambda a: a + 0.1, params["params"])  # non-zero bias too
+    (c, h), out = cell.apply({"params": p}, carry, x)
+
+    def sigmoid(v):
+        return 1.0 / (1.0 + np.exp(-v))
+
+    gates = np.asarray(x) @ p["input_kernel"] + np.asarray(carry[1]) @ p["hidden_kernel"] + p["bias"]
+    i, f, g, o = np.split(np.asarray(gates), 4, axis=-1)  # gate order i, f, g, o (as torch.nn.LSTMCell)
+    c_ref = sigmoid(f) * np.asarray(carry[0]) + sigmoid(i) * np.tanh(g)
+    np.testing.assert_allclose(c, c_ref, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(h, sigmoid(o) * np.tanh(c_ref), rtol=1e-5, atol=1e-6)
+    np.testing.assert_array_equal(out, h)
+    hidden = np.asarray(params["params"]["hidden_kernel"])  # each gate's block starts orthogonal
+    for block in np.split(hidden, 4, axis=1):
+        np.testing.assert_allclose(block.T @ block, np.eye(3), atol=1e-5)
+
+
+def test_kernel_matmul_probe_gradient_is_the_output_gradient():
+    layer = N.Dense(features=4)
+    x = jax.random.normal(jax.random.PRNGKey(1), (6, 3))
+    params = layer.init(jax.random.PRNGKey(0), x)
+
+    def loss(params, probe):
+        y, recorded = layer.apply({**params, "probes": {"kernel": probe}}, x, mutable=["inputs"])
+        return jnp.sum(jnp.sin(y)), recorded["inputs"]["kernel"]
+
+    (value, inputs), (g_params, g_probe) = jax.value_and_grad(loss, argnums=(0, 1), has_aux=True)(
+        params, jnp.zeros((6, 4)))
+    plain, g_plain = jax.value_and_grad(lambda p: jnp.sum(jnp.sin(layer.apply(p, x))))(params)
+    np.testing.assert_allclose(value, plain, rtol=1e-6)
+    np.testing.assert_array_equal(inputs, x)
+    assert not np.any(g_params["params"]["kernel"])  # held constant under probing
+    np.testing.assert_allclose(g_params["params"]["bias"], g_plain["params"]["bias"], rtol=1e-5)
+    np.testing.assert_allclose(np.asarray(x).T @ np.asarray(g_probe), g_plain["params"]["kernel"], rtol=1e-5,
+                               atol=1e-6)

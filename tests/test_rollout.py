@@ -122,3 +122,28 @@ def test_phase_network_modulates_the_decoder(setup):
     zero = jax.tree.map(jnp.zeros_like, phase_params)  # zero phase features, same compiled function
     without = fn(params, zero, batch, jax.random.PRNGKey(1), jnp.int32(6))
     assert float(jnp.abs(with_phase["rotations"] - without["rotations"]).max()) > 1e-6
+
+
+@pytest.mark.parametrize("extra", [(), ("model.bidirectional=false",)])
+def test_weight_gradients_after_scan_equal_per_step_gradients(setup, extra):
+    _, params, phase_params, batch, _ = setup
+    from stitchjax import losses
+
+    def gradients(flag):
+        config = tiny_config(f"train.weight_gradients_after_scan={flag}", *extra)
+
+        def loss(gen, pp, b):
+            return losses.generator_loss({**params, **gen}, pp, b, jax.random.PRNGKey(3), config, 7)[0]
+
+        generators = {k: params[k] for k in ("forward", "backward")}
+        return jax.jit(jax.value_and_grad(loss, argnums=(0, 1, 2)))(generators, phase_params, batch)
+
+    (loss_a, grads_a), (loss_b, grads_b) = gradients(False), gradients(True)
+    np.testing.assert_allclose(loss_a, loss_b, rtol=1e-6)
+    lstm = grads_b[0]["forward"]["params"]["lstm"]["input_kernel"]
+    assert np.any(np.asarray(lstm) != 0)  # kernel gradients are formed, not left at zero
+    for a, b in zip(jax.tree.leaves(grads_a), jax.tree.leaves(grads_b)):
+        scale = max(float(np.max(np.abs(a))), 1e-6)
+        np.testing.assert_allclose(np.asarray(b) / scale, np.asarray(a) / scale, atol=2e-5)
+    if extra:  # the unused backward generator gets zero gradients either way
+        assert not any(np.any(np.asarray(g)) for g in jax.tree.leaves(grads_b[0]["backward"]))
