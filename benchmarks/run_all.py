@@ -298,9 +298,36 @@ def hand_count(config, batch: int, length: int) -> dict:
     return torch_twin.matmul_flops(config, batch, length)
 
 
-def section_train(args, results: dict) -> dict:
-    import torch_twin
+def torch_thread_variants(run) -> dict:
+    """Timing functions for a torch callable: {"torch": torch's default thread count, "torch_1_thread"}
+    (the latter when the default is > 1). Each sets its thread count, runs, then restores the default.
+
+    The twin is timed both ways and the faster one is the baseline: eager torch's OpenMP threads can lose
+    10x when other processes compete for the cores, 1 thread does not."""
     import torch
+
+    default = torch.get_num_threads()
+
+    def with_threads(threads):
+        def timed():
+            torch.set_num_threads(threads)
+            try:
+                run()
+            finally:
+                torch.set_num_threads(default)
+        return timed
+
+    return {"torch": with_threads(default), **({"torch_1_thread": with_threads(1)} if default > 1 else {})}
+
+
+def best_torch_s(timings: dict) -> float:
+    """The fastest median over the torch thread settings timed."""
+    return min(t["median_s"] for name, t in timings.items() if name.startswith("torch"))
+
+
+def section_train(args, results: dict) -> dict:
+    import torch
+    import torch_twin
 
     config = bench_config(TRAIN_BATCH, TRAIN_LENGTH)
     log(f"train: compiling stitchjax step (batch {TRAIN_BATCH}, length {TRAIN_LENGTH}) ...")
@@ -311,23 +338,10 @@ def section_train(args, results: dict) -> dict:
     twin.load_flax(jax_train.state.params, jax_train.state.phase_params)
     batch = torch_twin.batch_to_torch(jax_train.host_data, np.arange(TRAIN_BATCH))
     rng = np.random.default_rng(0)
-
-    def torch_step(threads):
-        def run():
-            torch.set_num_threads(threads)
-            twin.train_step(batch, TRAIN_LENGTH, rng=rng)
-        return run
-
-    # The twin is timed at 1 thread and at torch's default; the faster one is the baseline (eager torch's
-    # OpenMP threads can lose 10x when other processes compete for the cores, 1 thread does not).
-    fns = {"jax": jax_train.run, "torch": torch_step(default_threads)}
-    if default_threads > 1:
-        fns["torch_1_thread"] = torch_step(1)
-    reps = 2 if args.quick else 5
-    timings = interleaved(fns, warmup=1, reps=reps)
-    torch.set_num_threads(default_threads)
+    fns = {"jax": jax_train.run, **torch_thread_variants(lambda: twin.train_step(batch, TRAIN_LENGTH, rng=rng))}
+    timings = interleaved(fns, warmup=1, reps=4 if args.quick else 8)
     jax_s = timings["jax"]["median_s"]
-    torch_s = min(t["median_s"] for name, t in timings.items() if name.startswith("torch"))  # best torch
+    torch_s = best_torch_s(timings)
     flop = jax_train.flops()
     hand = hand_count(config, TRAIN_BATCH, TRAIN_LENGTH)
     peak = results["machine"]["peak"]
@@ -361,22 +375,10 @@ def section_infer(args, results: dict) -> dict:
 
     twin = torch_twin.Twin(config)
     twin.load_flax(jax_infer.params, jax_infer.phase_params)
-    torch_fn = twin.make_inference(data, INFER_LENGTH, INFER_SAMPLES)
     default_threads = torch.get_num_threads()
-
-    def with_threads(threads):
-        def run():
-            torch.set_num_threads(threads)
-            torch_fn()
-        return run
-
-    fns = {"jax": jax_infer.run, "torch": with_threads(default_threads)}
-    if default_threads > 1:
-        fns["torch_1_thread"] = with_threads(1)
-    reps = 5 if args.quick else 15
-    timings = interleaved(fns, warmup=2, reps=reps)
-    torch.set_num_threads(default_threads)
-    torch_s = min(t["median_s"] for name, t in timings.items() if name.startswith("torch"))  # best torch
+    fns = {"jax": jax_infer.run, **torch_thread_variants(twin.make_inference(data, INFER_LENGTH, INFER_SAMPLES))}
+    timings = interleaved(fns, warmup=2, reps=5 if args.quick else 15)
+    torch_s = best_torch_s(timings)
     return {"samples": INFER_SAMPLES, "transition_length": INFER_LENGTH, "api": jax_infer.api,
             "jax_first_call_s": jax_infer.compile_s, "timings": timings,
             "torch_threads_default": default_threads,
@@ -386,64 +388,53 @@ def section_infer(args, results: dict) -> dict:
             "infer_speedup_vs_torch": torch_s / timings["jax"]["median_s"]}
 
 
-def section_scale_batch(args, results: dict) -> list:
+def train_point(args, batch: int, length: int, with_torch: bool):
+    """Time one (batch, transition length) train step: stitchjax, and the twin at 1 thread if asked.
+
+    Returns (row, JaxTrain): row = compile_s, jax_s, train_windows_per_s (+ torch_s,
+    torch_train_windows_per_s, speedup_vs_torch)."""
     import torch
     import torch_twin
 
+    jt = JaxTrain(bench_config(batch, length), length)
+    fns = {"jax": jt.run}
+    if with_torch:
+        twin = torch_twin.Twin(jt.config)
+        twin.load_flax(jt.state.params, jt.state.phase_params)
+        tb = torch_twin.batch_to_torch(jt.host_data, np.arange(batch))
+        fns["torch"] = lambda: (torch.set_num_threads(1), twin.train_step(tb, length))
+    t = interleaved(fns, warmup=1, reps=2 if args.quick else 3)
+    jax_s = t["jax"]["median_s"]
+    row = {"compile_s": jt.compile_s, "jax_s": jax_s, "train_windows_per_s": batch / jax_s}
+    if with_torch:
+        torch_s = t["torch"]["median_s"]
+        row.update({"torch_s": torch_s, "torch_train_windows_per_s": batch / torch_s,
+                    "speedup_vs_torch": torch_s / jax_s})
+    return row, jt
+
+
+def section_scale_batch(args, results: dict) -> list:
     sizes = (8, 128) if args.quick else (8, 16, 32, 64, 128, 256, 512)
     rows = []
     peak = results["machine"]["peak"]["theoretical"]["flops"]
     for batch in sizes:
-        config = bench_config(batch, TRAIN_LENGTH)
         log(f"scale_batch: batch {batch} ...")
-        jt = JaxTrain(config, TRAIN_LENGTH)
-        fns = {"jax": jt.run}
-        with_torch = not args.quick and batch <= 64  # eager torch at large batch takes minutes per step
-        if with_torch:
-            twin = torch_twin.Twin(config)
-            twin.load_flax(jt.state.params, jt.state.phase_params)
-            tb = torch_twin.batch_to_torch(jt.host_data, np.arange(batch))
-            fns["torch"] = lambda: (torch.set_num_threads(1), twin.train_step(tb, TRAIN_LENGTH))
-        t = interleaved(fns, warmup=1, reps=2 if args.quick else 3)
+        # eager torch at large batch takes minutes per step
+        row, jt = train_point(args, batch, TRAIN_LENGTH, with_torch=not args.quick and batch <= 64)
         flop = flops_lib.hlo_matmul_flops(jt.compiled)["matmul_flops"]
-        row = {"batch": batch, "compile_s": jt.compile_s, "jax_s": t["jax"]["median_s"],
-               "train_windows_per_s": batch / t["jax"]["median_s"],
-               "peak_flops_fraction": flop / t["jax"]["median_s"] / peak}
-        if with_torch:
-            row["torch_s"] = t["torch"]["median_s"]
-            row["torch_train_windows_per_s"] = batch / t["torch"]["median_s"]
-            row["speedup_vs_torch"] = t["torch"]["median_s"] / t["jax"]["median_s"]
-        rows.append(row)
-        log(f"  {row}")
+        rows.append({"batch": batch, **row, "peak_flops_fraction": flop / row["jax_s"] / peak})
+        log(f"  {rows[-1]}")
     return rows
 
 
 def section_scale_length(args, results: dict) -> list:
-    import torch
-    import torch_twin
-
     lengths = (10, 100) if args.quick else (10, 20, 30, 48, 70, 100)
     rows = []
     for length in lengths:
-        config = bench_config(TRAIN_BATCH, length)
         log(f"scale_length: transition length {length} (window {length + 2}) ...")
-        jt = JaxTrain(config, length)
-        fns = {"jax": jt.run}
-        with_torch = not args.quick and length <= 48
-        if with_torch:
-            twin = torch_twin.Twin(config)
-            twin.load_flax(jt.state.params, jt.state.phase_params)
-            tb = torch_twin.batch_to_torch(jt.host_data, np.arange(TRAIN_BATCH))
-            fns["torch"] = lambda: (torch.set_num_threads(1), twin.train_step(tb, length))
-        t = interleaved(fns, warmup=1, reps=2 if args.quick else 3)
-        row = {"transition_length": length, "window": length + 2, "compile_s": jt.compile_s,
-               "jax_s": t["jax"]["median_s"], "train_windows_per_s": TRAIN_BATCH / t["jax"]["median_s"]}
-        if with_torch:
-            row.update({"torch_s": t["torch"]["median_s"],
-                        "torch_train_windows_per_s": TRAIN_BATCH / t["torch"]["median_s"],
-                        "speedup_vs_torch": t["torch"]["median_s"] / t["jax"]["median_s"]})
-        rows.append(row)
-        log(f"  {row}")
+        row, _ = train_point(args, TRAIN_BATCH, length, with_torch=not args.quick and length <= 48)
+        rows.append({"transition_length": length, "window": length + 2, **row})
+        log(f"  {rows[-1]}")
     return rows
 
 

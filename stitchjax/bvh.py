@@ -27,7 +27,7 @@ import re
 import numpy as np
 
 from stitchjax import rotations as R
-from stitchjax.skeleton import Skeleton, forward_kinematics
+from stitchjax.skeleton import GlobalTransforms, Skeleton
 
 __all__ = ["BVHError", "Motion", "load", "save", "ROOT_CHANNELS", "JOINT_CHANNELS"]
 
@@ -47,7 +47,7 @@ class BVHError(ValueError):
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class Motion:
+class Motion(GlobalTransforms):
     """One BVH take as local joint transforms.
 
     Attributes:
@@ -104,18 +104,6 @@ class Motion:
     def with_frames(self, rotations, positions) -> "Motion":
         """Same skeleton, fps and channel layout with new (T', J, 4) rotations, (T', J, 3) positions."""
         return dataclasses.replace(self, rotations=rotations, positions=positions)
-
-    def global_transforms(self):
-        """(global rotations (T, J, 4), global positions (T, J, 3)) by forward kinematics."""
-        return forward_kinematics(self.rotations, self.positions, self.skeleton.parents)
-
-    def global_positions(self) -> np.ndarray:
-        """(T, J, 3) joint positions in the world, file units."""
-        return self.global_transforms()[1]
-
-    def global_rotations(self) -> np.ndarray:
-        """(T, J, 4) joint orientations in the world."""
-        return self.global_transforms()[0]
 
     def __repr__(self):
         return (f"Motion({self.num_frames} frames, {self.num_joints} joints, fps={self.fps:g}, "

@@ -130,6 +130,23 @@ def forward_kinematics(local_rotations, local_positions, parents):
     return _forward_kinematics_jax(local_rotations, local_positions, parents)
 
 
+class GlobalTransforms:
+    """Mixin for containers of local frames: ``rotations`` (..., J, 4), ``positions`` (..., J, 3) and a
+    ``skeleton`` attribute (``bvh.Motion``: (T, J, ...), ``windows.Windows``: (N, T, J, ...))."""
+
+    def global_transforms(self):
+        """(global rotations (..., J, 4), global positions (..., J, 3)) by forward kinematics."""
+        return forward_kinematics(self.rotations, self.positions, self.skeleton.parents)
+
+    def global_positions(self) -> np.ndarray:
+        """(..., J, 3) joint positions in the world, file units."""
+        return self.global_transforms()[1]
+
+    def global_rotations(self) -> np.ndarray:
+        """(..., J, 4) joint orientations in the world."""
+        return self.global_transforms()[0]
+
+
 @lru_cache(maxsize=None)
 def _level_indices(parents: tuple):
     """(levels, width) int arrays: each depth's joints and their parents, padded by repeating the last."""

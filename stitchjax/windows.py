@@ -28,7 +28,7 @@ import dataclasses
 import numpy as np
 
 from stitchjax import rotations as R
-from stitchjax.skeleton import Skeleton, forward_kinematics
+from stitchjax.skeleton import GlobalTransforms, Skeleton
 
 __all__ = [
     "Windows", "window_starts", "window_indices", "foot_contacts", "contacts_from_displacement",
@@ -42,7 +42,7 @@ FACING_FRAME = 9  # the last of the 10 context frames of the LAFAN1 benchmark
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class Windows:
+class Windows(GlobalTransforms):
     """A batch of N fixed-length clips of T frames on one skeleton (J joints).
 
     Attributes:
@@ -95,18 +95,6 @@ class Windows:
         return dataclasses.replace(
             self, rotations=self.rotations[picked], positions=self.positions[picked],
             contacts=self.contacts[picked], sources=[self.sources[i] for i in np.atleast_1d(picked)])
-
-    def global_transforms(self):
-        """(global rotations (N, T, J, 4), global positions (N, T, J, 3)) by forward kinematics."""
-        return forward_kinematics(self.rotations, self.positions, self.skeleton.parents)
-
-    def global_positions(self) -> np.ndarray:
-        """(N, T, J, 3) joint positions in the world, file units."""
-        return self.global_transforms()[1]
-
-    def global_rotations(self) -> np.ndarray:
-        """(N, T, J, 4) joint orientations in the world."""
-        return self.global_transforms()[0]
 
     def reversed(self) -> "Windows":
         """The same windows played backwards in time (frames and contacts reversed), for training
