@@ -298,9 +298,10 @@ def hand_count(config, batch: int, length: int) -> dict:
     return torch_twin.matmul_flops(config, batch, length)
 
 
-def torch_thread_variants(run) -> dict:
+def torch_thread_variants(run, one_thread: bool = True) -> dict:
     """Timing functions for a torch callable: {"torch": torch's default thread count, "torch_1_thread"}
-    (the latter when the default is > 1). Each sets its thread count, runs, then restores the default.
+    (the latter when one_thread and the default is > 1). Each sets its thread count, runs, then restores
+    the default.
 
     The twin is timed both ways and the faster one is the baseline: eager torch's OpenMP threads can lose
     10x when other processes compete for the cores, 1 thread does not."""
@@ -317,7 +318,8 @@ def torch_thread_variants(run) -> dict:
                 torch.set_num_threads(default)
         return timed
 
-    return {"torch": with_threads(default), **({"torch_1_thread": with_threads(1)} if default > 1 else {})}
+    extra = {"torch_1_thread": with_threads(1)} if one_thread and default > 1 else {}
+    return {"torch": with_threads(default), **extra}
 
 
 def best_torch_s(timings: dict) -> float:
@@ -339,7 +341,7 @@ def section_train(args, results: dict) -> dict:
     batch = torch_twin.batch_to_torch(jax_train.host_data, np.arange(TRAIN_BATCH))
     rng = np.random.default_rng(0)
     fns = {"jax": jax_train.run, **torch_thread_variants(lambda: twin.train_step(batch, TRAIN_LENGTH, rng=rng))}
-    timings = interleaved(fns, warmup=1, reps=4 if args.quick else 8)
+    timings = interleaved(fns, warmup=1, reps=3 if args.quick else 8)
     jax_s = timings["jax"]["median_s"]
     torch_s = best_torch_s(timings)
     flop = jax_train.flops()
@@ -376,7 +378,9 @@ def section_infer(args, results: dict) -> dict:
     twin = torch_twin.Twin(config)
     twin.load_flax(jax_infer.params, jax_infer.phase_params)
     default_threads = torch.get_num_threads()
-    fns = {"jax": jax_infer.run, **torch_thread_variants(twin.make_inference(data, INFER_LENGTH, INFER_SAMPLES))}
+    # --quick times the twin at torch's default threads only (1 thread is slower on an idle machine)
+    torch_fn = twin.make_inference(data, INFER_LENGTH, INFER_SAMPLES)
+    fns = {"jax": jax_infer.run, **torch_thread_variants(torch_fn, one_thread=not args.quick)}
     timings = interleaved(fns, warmup=2, reps=5 if args.quick else 15)
     torch_s = best_torch_s(timings)
     return {"samples": INFER_SAMPLES, "transition_length": INFER_LENGTH, "api": jax_infer.api,
@@ -403,7 +407,7 @@ def train_point(args, batch: int, length: int, with_torch: bool):
         twin.load_flax(jt.state.params, jt.state.phase_params)
         tb = torch_twin.batch_to_torch(jt.host_data, np.arange(batch))
         fns["torch"] = lambda: (torch.set_num_threads(1), twin.train_step(tb, length))
-    t = interleaved(fns, warmup=1, reps=2 if args.quick else 3)
+    t = interleaved(fns, warmup=1, reps=1 if args.quick else 3)
     jax_s = t["jax"]["median_s"]
     row = {"compile_s": jt.compile_s, "jax_s": jax_s, "train_windows_per_s": batch / jax_s}
     if with_torch:
