@@ -21,6 +21,8 @@ both alike):
   THEORETICAL float32 peak (cores x nominal GHz x FLOP/cycle, see flops.py); the measured GEMM peak of
   numpy/XLA on this machine is reported beside it.
 - infer: one transition of 50 generated frames, 64 samples (one vmapped rollout), ms per call.
+- train and infer are also timed with model.matmul_dtype=bfloat16 (bfloat16 matmul operands, float32
+  accumulation), against the twin in float32 and under torch.autocast(bfloat16).
 - scale_batch: train windows/s vs batch size; scale_length: vs transition length (window = L + 2 frames of
   synthetic data); data_parallel: train windows/s with 1, 2, 4 forced host CPU devices (subprocesses with
   XLA_FLAGS=--xla_force_host_platform_device_count=N), same global batch 32.
@@ -59,6 +61,7 @@ TRAIN_BATCH = 32
 TRAIN_LENGTH = 48  # lafan1 train.max_length: 50-frame windows, 48 generated frames
 INFER_SAMPLES = 64
 INFER_LENGTH = 50
+BFLOAT16 = "model.matmul_dtype=bfloat16"
 TARGETS = {"train_speedup_vs_torch": 3.0, "peak_flops_fraction": 0.30, "infer_64x50_ms": 200.0}
 
 
@@ -322,9 +325,21 @@ def torch_thread_variants(run, one_thread: bool = True) -> dict:
     return {"torch": with_threads(default), **extra}
 
 
-def best_torch_s(timings: dict) -> float:
-    """The fastest median over the torch thread settings timed."""
-    return min(t["median_s"] for name, t in timings.items() if name.startswith("torch"))
+def best_torch_s(timings: dict, any_precision: bool = False) -> float:
+    """The fastest median over the float32 torch variants timed (with any_precision: bfloat16 too)."""
+    return min(t["median_s"] for name, t in timings.items()
+               if name.startswith("torch") and (any_precision or "bfloat16" not in name))
+
+
+def torch_bfloat16(run) -> Callable[[], Any]:
+    """``run`` under ``torch.autocast("cpu", dtype=torch.bfloat16)`` at torch's default threads: the
+    twin's counterpart of ``model.matmul_dtype=bfloat16``."""
+    import torch
+
+    def timed():
+        with torch.autocast("cpu", dtype=torch.bfloat16):
+            run()
+    return timed
 
 
 def section_train(args, results: dict) -> dict:
@@ -334,7 +349,8 @@ def section_train(args, results: dict) -> dict:
     config = bench_config(TRAIN_BATCH, TRAIN_LENGTH)
     log(f"train: compiling stitchjax step (batch {TRAIN_BATCH}, length {TRAIN_LENGTH}) ...")
     jax_train = JaxTrain(config, TRAIN_LENGTH)
-    log(f"train: compiled in {jax_train.compile_s:.1f} s")
+    log(f"train: compiled in {jax_train.compile_s:.1f} s; the same with model.matmul_dtype=bfloat16 ...")
+    jax_train_bf16 = JaxTrain(bench_config(TRAIN_BATCH, TRAIN_LENGTH, [BFLOAT16]), TRAIN_LENGTH)
     default_threads = torch.get_num_threads()
     twin = torch_twin.Twin(config)
     twin.load_flax(jax_train.state.params, jax_train.state.phase_params)
@@ -342,10 +358,14 @@ def section_train(args, results: dict) -> dict:
     rng = np.random.default_rng(0)
     # --quick times the twin at torch's default threads only (1 thread is slower on an idle machine).
     # Two warm-up calls: a compiled jax step runs ~40% slower the first time after compilation.
-    torch_fns = torch_thread_variants(lambda: twin.train_step(batch, TRAIN_LENGTH, rng=rng), not args.quick)
-    timings = interleaved({"jax": jax_train.run, **torch_fns}, warmup=2, reps=3 if args.quick else 8)
+    twin_step = lambda: twin.train_step(batch, TRAIN_LENGTH, rng=rng)  # noqa: E731
+    torch_fns = torch_thread_variants(twin_step, not args.quick)
+    timings = interleaved({"jax": jax_train.run, **torch_fns, "jax_bfloat16": jax_train_bf16.run,
+                           "torch_bfloat16_autocast": torch_bfloat16(twin_step)},
+                          warmup=2, reps=3 if args.quick else 8)
     jax_s = timings["jax"]["median_s"]
     torch_s = best_torch_s(timings)
+    bf16_s = timings["jax_bfloat16"]["median_s"]
     flop = jax_train.flops()
     hand = hand_count(config, TRAIN_BATCH, TRAIN_LENGTH)
     peak = results["machine"]["peak"]
@@ -364,6 +384,12 @@ def section_train(args, results: dict) -> dict:
         "torch_achieved_matmul_flops_per_s": hand["total"] / torch_s,
         "torch_threads_default": default_threads,
         "jax_loss": float(jax_train.metrics["loss"]),
+        "bfloat16_note": "model.matmul_dtype=bfloat16 (bfloat16 matmul operands, float32 accumulation) vs the "
+                         "fastest twin in float32 or under torch.autocast(bfloat16)",
+        "jax_bfloat16_compile_s": jax_train_bf16.compile_s,
+        "train_bf16_windows_per_s": TRAIN_BATCH / bf16_s,
+        "torch_bf16_train_windows_per_s": TRAIN_BATCH / timings["torch_bfloat16_autocast"]["median_s"],
+        "train_bf16_speedup_vs_torch": best_torch_s(timings, any_precision=True) / bf16_s,
     }
     return out
 
@@ -375,6 +401,7 @@ def section_infer(args, results: dict) -> dict:
     data = synthetic_dataset(config, 2, INFER_LENGTH + 2, seed=1)
     log(f"infer: compiling stitchjax inference ({INFER_SAMPLES} samples x {INFER_LENGTH} frames) ...")
     jax_infer = JaxInfer(config, INFER_LENGTH, INFER_SAMPLES, data)
+    jax_infer_bf16 = JaxInfer(bench_config(TRAIN_BATCH, INFER_LENGTH, [BFLOAT16]), INFER_LENGTH, INFER_SAMPLES, data)
     import torch
 
     twin = torch_twin.Twin(config)
@@ -382,16 +409,21 @@ def section_infer(args, results: dict) -> dict:
     default_threads = torch.get_num_threads()
     # --quick times the twin at torch's default threads only (1 thread is slower on an idle machine)
     torch_fn = twin.make_inference(data, INFER_LENGTH, INFER_SAMPLES)
-    fns = {"jax": jax_infer.run, **torch_thread_variants(torch_fn, one_thread=not args.quick)}
+    fns = {"jax": jax_infer.run, **torch_thread_variants(torch_fn, one_thread=not args.quick),
+           "jax_bfloat16": jax_infer_bf16.run, "torch_bfloat16_autocast": torch_bfloat16(torch_fn)}
     timings = interleaved(fns, warmup=2, reps=5 if args.quick else 15)
     torch_s = best_torch_s(timings)
+    bf16_s = timings["jax_bfloat16"]["median_s"]
     return {"samples": INFER_SAMPLES, "transition_length": INFER_LENGTH, "api": jax_infer.api,
             "jax_first_call_s": jax_infer.compile_s, "timings": timings,
             "torch_threads_default": default_threads,
             "torch_note": "torch_infer_64x50_ms uses the faster of the torch thread settings timed",
             "infer_64x50_ms": 1e3 * timings["jax"]["median_s"],
             "torch_infer_64x50_ms": 1e3 * torch_s,
-            "infer_speedup_vs_torch": torch_s / timings["jax"]["median_s"]}
+            "infer_speedup_vs_torch": torch_s / timings["jax"]["median_s"],
+            "infer_64x50_bf16_ms": 1e3 * bf16_s,
+            "torch_bf16_infer_64x50_ms": 1e3 * timings["torch_bfloat16_autocast"]["median_s"],
+            "infer_bf16_speedup_vs_torch": best_torch_s(timings, any_precision=True) / bf16_s}
 
 
 def train_point(args, batch: int, length: int, with_torch: bool):
@@ -495,6 +527,9 @@ def summary(results: dict) -> dict:
         "peak_flops_fraction": train_res.get("peak_flops_fraction"),
         "infer_64x50_ms": infer_res.get("infer_64x50_ms"),
         "torch_infer_64x50_ms": infer_res.get("torch_infer_64x50_ms"),
+        "train_bf16_windows_per_s": train_res.get("train_bf16_windows_per_s"),
+        "train_bf16_speedup_vs_torch": train_res.get("train_bf16_speedup_vs_torch"),
+        "infer_64x50_bf16_ms": infer_res.get("infer_64x50_bf16_ms"),
     }
     met = {}
     if keys["train_speedup_vs_torch"] is not None:
@@ -503,6 +538,8 @@ def summary(results: dict) -> dict:
         met["peak_flops_fraction >= 0.30"] = keys["peak_flops_fraction"] >= TARGETS["peak_flops_fraction"]
     if keys["infer_64x50_ms"] is not None:
         met["infer_64x50_ms < 200"] = keys["infer_64x50_ms"] < TARGETS["infer_64x50_ms"]
+    if keys["infer_64x50_bf16_ms"] is not None:
+        met["infer_64x50_bf16_ms < 200"] = keys["infer_64x50_bf16_ms"] < TARGETS["infer_64x50_ms"]
     keys["targets_met"] = met
     return keys
 

@@ -48,7 +48,7 @@ from stitchjax.skeleton import LAFAN1_FEET, LAFAN1_JOINTS, forward_kinematics
 from stitchjax.windows import CONTACT_THRESHOLD, center_and_face, facing_rotation, foot_contacts
 
 __all__ = [
-    "InbetweenError", "Model", "load_model", "random_model", "inbetween", "inbetween_clip",
+    "InbetweenError", "Model", "load_model", "random_model", "with_matmul_dtype", "inbetween", "inbetween_clip",
     "sample_transitions", "transitions_in_frame", "keyframe_contacts", "model_method",
     "evaluation_method", "stitch_losses", "noise_shape", "window_keyframes", "rollout_details",
 ]
@@ -191,6 +191,19 @@ def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None
     names = tuple(joint_names) if joint_names is not None else _default_joint_names(config)
     return Model(config, {"forward": params["forward"], "backward": params["backward"]}, phase_params,
                  names, _default_feet(config), {}, f"random init (seed {seed})")
+
+
+def with_matmul_dtype(model: Model, dtype: str) -> Model:
+    """The same model computing its matmuls on ``dtype`` operands ("float32" or "bfloat16", float32
+    accumulation either way; see ``networks.matmul``). Parameters are unchanged, so a float32-trained
+    model can sample in bfloat16: ~2x faster on CPUs with AMX / AVX512-BF16, GPUs and TPUs, positions
+    differing by a fraction of a centimetre (more late in long transitions)."""
+    from stitchjax import networks
+
+    if dtype not in networks.MATMUL_DTYPES:
+        raise InbetweenError(f"matmul dtype {dtype!r}: use one of {', '.join(networks.MATMUL_DTYPES)}")
+    config = dataclasses.replace(model.config, model=dataclasses.replace(model.config.model, matmul_dtype=dtype))
+    return dataclasses.replace(model, config=config)
 
 
 # ------------------------------------------------------------------------------------ model-frame core

@@ -13,13 +13,17 @@ The expert blend mixes each layer's expert *outputs* (``einsum`` over the expert
 weight matrix per example.
 
 Every generator matmul goes through :func:`kernel_matmul`, so the rollout can take the weight gradients out
-of its scan (``model.weight_gradients_after_scan``, see ``rollout.py``): under a ``"probes"`` variable
+of its scan (``train.weight_gradients_after_scan``, see ``rollout.py``): under a ``"probes"`` variable
 collection each product ``x @ W`` gets a zero probe added and records its input ``x``; the probe's
-gradient is the product's output gradient, and ``dW = sum over steps of x^T dy`` becomes one large matmul. Discriminators (RMIB style): a temporal convolution whose kernel spans the
-whole window (2 or 10 frames) over per-frame features, then dense layers; one score per window position.
+gradient is the product's output gradient, and ``dW = sum over steps of x^T dy`` becomes one large matmul.
+``model.matmul_dtype`` sets the precision of those matmuls' operands (:func:`matmul`).
+
+Discriminators (RMIB style): a temporal convolution whose kernel spans the whole window (2 or 10 frames)
+over per-frame features, then dense layers; one score per window position.
 """
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import flax.linen as nn
@@ -27,7 +31,7 @@ import jax
 import jax.numpy as jnp
 
 __all__ = [
-    "kernel_matmul", "Dense", "LSTMCell", "MLP", "MoEDense", "Generator", "Discriminator", "init_params", "make_generator",
+    "MATMUL_DTYPES", "matmul", "kernel_matmul", "Dense", "LSTMCell", "MLP", "MoEDense", "Generator", "Discriminator", "init_params", "make_generator",
     "make_discriminator", "initial_carry", "blend_gaussians", "disc_feature_dim", "phase_dim",
     "generator_input_dims",
 ]
@@ -43,8 +47,51 @@ def activation_fn(name: str):
         raise ValueError(f"unknown activation {name!r}; use one of {', '.join(_ACTIVATIONS)}") from None
 
 
-def kernel_matmul(module: nn.Module, x, kernel, name: str):
+MATMUL_DTYPES = {"float32": jnp.float32, "bfloat16": jnp.bfloat16}
+
+
+def matmul(x, kernel, dtype: str = "float32"):
+    """x (..., in) @ kernel (in, out) -> float32 (..., out).
+
+    dtype "float32": plain float32 matmul. "bfloat16": both operands rounded to bfloat16, products
+    accumulated in float32, and the same for the two gradient products (output gradient rounded to
+    bfloat16): only the matmuls' operands lose precision; everything between them stays float32.
+    """
+    if dtype not in MATMUL_DTYPES:
+        raise ValueError(f"model.matmul_dtype={dtype!r}: use one of {', '.join(MATMUL_DTYPES)}")
+    if dtype == "float32":
+        return x @ kernel
+    return _low_precision_matmul(x, kernel, dtype)
+
+
+@functools.partial(jax.custom_vjp, nondiff_argnums=(2,))
+def _low_precision_matmul(x, kernel, dtype):
+    return _low_precision_matmul_forward(x, kernel, dtype)[0]
+
+
+def _low_precision_matmul_forward(x, kernel, dtype):
+    low = MATMUL_DTYPES[dtype]
+    x, kernel = x.astype(low), kernel.astype(low)
+    return jnp.matmul(x, kernel, preferred_element_type=jnp.float32), (x, kernel)
+
+
+def _low_precision_matmul_backward(dtype, residuals, dy):
+    # Written out because autodiff of the forward would run both products on float32 operands.
+    x, kernel = residuals
+    dy = dy.astype(x.dtype)
+    dx = jax.lax.dot_general(dy, kernel, (((dy.ndim - 1,), (1,)), ((), ())), preferred_element_type=jnp.float32)
+    leading = tuple(range(x.ndim - 1))
+    dkernel = jax.lax.dot_general(x, dy, ((leading, leading), ((), ())), preferred_element_type=jnp.float32)
+    return dx, dkernel
+
+
+_low_precision_matmul.defvjp(_low_precision_matmul_forward, _low_precision_matmul_backward)
+
+
+def kernel_matmul(module: nn.Module, x, kernel, name: str, dtype: str = "float32"):
     """``x @ kernel`` (kernel (in, ...) flattened to (in, out)) for ``module``'s parameter ``name``.
+
+    dtype: the operands' precision (see :func:`matmul`); the result is float32 either way.
 
     Plain matmul, unless the apply call passes a ``"probes"`` collection holding ``name`` for this module
     (gradient probing, used by ``rollout.rollout_batch``): then the kernel is held constant, a zero probe
@@ -53,21 +100,22 @@ def kernel_matmul(module: nn.Module, x, kernel, name: str):
     """
     flat = kernel.reshape(kernel.shape[0], -1)
     if not module.has_variable("probes", name):
-        return x @ flat
+        return matmul(x, flat, dtype)
     module.put_variable("inputs", name, x)
-    return x @ jax.lax.stop_gradient(flat) + module.get_variable("probes", name)
+    return matmul(x, jax.lax.stop_gradient(flat), dtype) + module.get_variable("probes", name)
 
 
 class Dense(nn.Module):
     """Dense layer x (..., in) -> (..., features), flax ``nn.Dense`` initialisation and parameter names."""
 
     features: int
+    matmul_dtype: str = "float32"
 
     @nn.compact
     def __call__(self, x):
         kernel = self.param("kernel", nn.initializers.lecun_normal(), (x.shape[-1], self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.features,))
-        return kernel_matmul(self, x, kernel, "kernel") + bias
+        return kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype) + bias
 
 
 def _orthogonal_blocks(key, shape, dtype=jnp.float32):
@@ -87,6 +135,7 @@ class LSTMCell(nn.Module):
     """
 
     features: int
+    matmul_dtype: str = "float32"
 
     @nn.compact
     def __call__(self, carry, x):
@@ -95,8 +144,8 @@ class LSTMCell(nn.Module):
         input_kernel = self.param("input_kernel", nn.initializers.lecun_normal(), (x.shape[-1], 4 * hidden))
         hidden_kernel = self.param("hidden_kernel", _orthogonal_blocks, (hidden, 4 * hidden))
         bias = self.param("bias", nn.initializers.zeros, (4 * hidden,))
-        gates = (kernel_matmul(self, x, input_kernel, "input_kernel")
-                 + kernel_matmul(self, h, hidden_kernel, "hidden_kernel") + bias)
+        gates = (kernel_matmul(self, x, input_kernel, "input_kernel", self.matmul_dtype)
+                 + kernel_matmul(self, h, hidden_kernel, "hidden_kernel", self.matmul_dtype) + bias)
         i, f, g, o = jnp.split(gates, 4, axis=-1)
         c = jax.nn.sigmoid(f) * c + jax.nn.sigmoid(i) * jnp.tanh(g)
         h = jax.nn.sigmoid(o) * jnp.tanh(c)
@@ -109,12 +158,13 @@ class MLP(nn.Module):
     widths: tuple
     activation: str = "elu"
     activate_last: bool = True
+    matmul_dtype: str = "float32"
 
     @nn.compact
     def __call__(self, x):
         act = activation_fn(self.activation)
         for i, width in enumerate(self.widths):
-            x = Dense(width, name=f"dense_{i}")(x)
+            x = Dense(width, self.matmul_dtype, name=f"dense_{i}")(x)
             if self.activate_last or i < len(self.widths) - 1:
                 x = act(x)
         return x
@@ -132,6 +182,7 @@ class MoEDense(nn.Module):
 
     features: int
     num_experts: int
+    matmul_dtype: str = "float32"
 
     @nn.compact
     def __call__(self, x, coefficients):
@@ -139,7 +190,7 @@ class MoEDense(nn.Module):
                                                 batch_axis=(1,))
         kernel = self.param("kernel", init, (x.shape[-1], self.num_experts, self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.num_experts, self.features))
-        flat = kernel_matmul(self, x, kernel, "kernel")
+        flat = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype)
         expert_outputs = flat.reshape(x.shape[:-1] + (self.num_experts, self.features)) + bias
         return jnp.einsum("...e,...eo->...o", coefficients, expert_outputs)
 
@@ -185,13 +236,14 @@ class Generator(nn.Module):
         m = self.config.model
         data = self.config.data
         latent = m.latent_dim
-        e_state = MLP(tuple(m.encoder_widths), m.activation, name="state_encoder")(state)
-        e_offset = MLP(tuple(m.encoder_widths), m.activation, name="offset_encoder")(offset)
-        e_target = MLP(tuple(m.encoder_widths), m.activation, name="target_encoder")(target)
+        dt = m.matmul_dtype
+        e_state = MLP(tuple(m.encoder_widths), m.activation, matmul_dtype=dt, name="state_encoder")(state)
+        e_offset = MLP(tuple(m.encoder_widths), m.activation, matmul_dtype=dt, name="offset_encoder")(offset)
+        e_target = MLP(tuple(m.encoder_widths), m.activation, matmul_dtype=dt, name="target_encoder")(target)
         x = jnp.concatenate([e_state, e_offset, e_target], axis=-1)
-        carry, h = LSTMCell(m.lstm_size, name="lstm")(carry, x)
-        current_head = Dense(2 * latent, name="current_head")(h)
-        target_head = Dense(2 * latent, name="target_head")(h)
+        carry, h = LSTMCell(m.lstm_size, dt, name="lstm")(carry, x)
+        current_head = Dense(2 * latent, dt, name="current_head")(h)
+        target_head = Dense(2 * latent, dt, name="target_head")(h)
         mu, logvar = current_head[..., :latent], current_head[..., latent:]
         mu_t, logvar_t = target_head[..., :latent], target_head[..., latent:]
         if m.latent_interpolation:
@@ -206,15 +258,15 @@ class Generator(nn.Module):
         widths = tuple(m.decoder_widths) + (num_out,)
         if m.phase_modulation:
             gating = MLP(tuple(m.gating_widths) + (m.num_experts,), m.activation, activate_last=False,
-                         name="gating")(phase)
+                         matmul_dtype=dt, name="gating")(phase)
             coefficients = jax.nn.softmax(gating, axis=-1)
             act = activation_fn(m.activation)
             for i, width in enumerate(widths):
-                y = MoEDense(width, m.num_experts, name=f"expert_{i}")(y, coefficients)
+                y = MoEDense(width, m.num_experts, dt, name=f"expert_{i}")(y, coefficients)
                 if i < len(widths) - 1:
                     y = act(y)
         else:
-            y = MLP(widths, m.activation, activate_last=False, name="decoder")(y)
+            y = MLP(widths, m.activation, activate_last=False, matmul_dtype=dt, name="decoder")(y)
         n = data.num_joints * 4
         outputs = {
             "velocity": y[..., :3], "rotation_update": y[..., 3:3 + n], "contact_logits": y[..., 3 + n:],

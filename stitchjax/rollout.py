@@ -348,15 +348,21 @@ def zero_probes(generators: dict, leading: tuple) -> dict:
             for name, params in generators.items()}
 
 
-def kernel_gradients(generators: dict, inputs: dict, probe_grads: dict) -> dict:
+def kernel_gradients(generators: dict, inputs: dict, probe_grads: dict, matmul_dtype: str = "float32") -> dict:
     """Kernel gradients {name: {"params": tree of kernel-shaped arrays}}: sum over all leading axes of
-    x^T dy, with x the recorded matmul inputs (..., in) and dy the probes' gradients (..., out)."""
+    x^T dy, with x the recorded matmul inputs (..., in) and dy the probes' gradients (..., out).
+    matmul_dtype: operand precision of these products (float32 accumulation either way)."""
+    low = networks.MATMUL_DTYPES[matmul_dtype]
+
+    def gradient(kernel, x, dy):
+        x, dy = x.astype(low), dy.astype(low)
+        dk = jnp.einsum("...i,...o->io", x, dy, preferred_element_type=jnp.float32)
+        return dk.reshape(kernel.shape).astype(kernel.dtype)
+
     result = {}
     for name, recorded in inputs.items():
         kernels = _kernels(generators[name]["params"], lambda k: k)
-        result[name] = {"params": jax.tree.map(
-            lambda k, x, dy: jnp.einsum("...i,...o->io", x, dy.astype(x.dtype)).reshape(k.shape).astype(k.dtype),
-            kernels, recorded, probe_grads[name])}
+        result[name] = {"params": jax.tree.map(gradient, kernels, recorded, probe_grads[name])}
     return result
 
 
@@ -388,7 +394,8 @@ def _probed_forward(generators, phase_params, start, target, offsets, keys, leng
 def _probed_backward(config, max_length, residuals, cotangent):
     vjp_fn, generators, inputs = residuals
     d_generators, d_phase, d_start, d_target, d_offsets, d_probes = vjp_fn(cotangent)
-    d_generators = _add_kernel_gradients(d_generators, kernel_gradients(generators, inputs, d_probes))
+    kernel_grads = kernel_gradients(generators, inputs, d_probes, config.model.matmul_dtype)
+    d_generators = _add_kernel_gradients(d_generators, kernel_grads)
     return d_generators, d_phase, d_start, d_target, d_offsets, None, None
 
 

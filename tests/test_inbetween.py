@@ -70,6 +70,23 @@ def test_samples_differ_and_end_exactly_on_the_keyframes(model, take):
     np.testing.assert_allclose(samples[0].positions[:, 1:], np.broadcast_to(take.positions[100, 1:], (LENGTH + 2, 21, 3)))
 
 
+def test_bfloat16_matmuls_give_nearby_transitions_that_still_end_on_the_keyframes(model, take):
+    low = inbetween.with_matmul_dtype(model, "bfloat16")
+    assert low.config.model.matmul_dtype == "bfloat16" and model.config.model.matmul_dtype == "float32"
+    assert low.params is model.params
+    start, target = take[99:101], take[110:112]
+    exact = inbetween.inbetween(model, start, target, LENGTH, num_samples=CANDIDATES, seed=0)
+    rounded = inbetween.inbetween(low, start, target, LENGTH, num_samples=CANDIDATES, seed=0)
+    g_start, g_target = _global(take[100])[0], _global(take[110])[0]
+    for a, b in zip(exact, rounded):
+        g_a, g_b = _global(a), _global(b)
+        assert np.abs(g_b[0] - g_start).max() < TOL_CM and np.abs(g_b[-1] - g_target).max() < TOL_CM
+        difference = np.abs(g_b - g_a).max()
+        assert 0 < difference < 5.0, difference  # cm: same noise, rounded matmul operands
+    with pytest.raises(inbetween.InbetweenError, match="float16"):
+        inbetween.with_matmul_dtype(model, "float16")
+
+
 def test_result_follows_the_keyframes_when_the_world_turns(model, take):
     """Alignment in and out: turning and shifting the input turns and shifts the transitions."""
     turn = R.quat_from_axis_angle(np.array([0.0, 1.0, 0.0]), np.array(2.1))

@@ -2,6 +2,7 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from stitchjax import config as C
 from stitchjax import networks as N
@@ -125,3 +126,49 @@ def test_kernel_matmul_probe_gradient_is_the_output_gradient():
     np.testing.assert_allclose(g_params["params"]["bias"], g_plain["params"]["bias"], rtol=1e-5)
     np.testing.assert_allclose(np.asarray(x).T @ np.asarray(g_probe), g_plain["params"]["kernel"], rtol=1e-5,
                                atol=1e-6)
+
+
+def test_bfloat16_matmul_rounds_only_the_operands_forward_and_backward():
+    x = jax.random.normal(jax.random.PRNGKey(1), (2, 5, 48))
+    kernel = jax.random.normal(jax.random.PRNGKey(2), (48, 24))
+    as_bf16 = lambda a: np.asarray(jnp.asarray(a).astype(jnp.bfloat16).astype(jnp.float32), np.float64)  # noqa: E731
+    y = N.matmul(x, kernel, "bfloat16")
+    assert y.dtype == jnp.float32
+    np.testing.assert_allclose(y, as_bf16(x) @ as_bf16(kernel), rtol=1e-5, atol=1e-4)
+    assert np.abs(np.asarray(y) - np.asarray(N.matmul(x, kernel))).max() > 1e-3  # really rounded
+
+    def loss(x, kernel, dtype):
+        return jnp.sum(jnp.sin(N.matmul(x, kernel, dtype)))
+
+    dx, dkernel = jax.grad(loss, argnums=(0, 1))(x, kernel, "bfloat16")
+    assert dx.dtype == jnp.float32 and dkernel.dtype == jnp.float32
+    dy = as_bf16(np.cos(np.asarray(y)))
+    np.testing.assert_allclose(dx, dy @ as_bf16(kernel).T, rtol=1e-3, atol=1e-3)
+    np.testing.assert_allclose(dkernel, np.einsum("bti,bto->io", as_bf16(x), dy), rtol=1e-3, atol=1e-3)
+    dx32, dkernel32 = jax.grad(loss, argnums=(0, 1))(x, kernel, "float32")
+    np.testing.assert_allclose(dkernel, dkernel32, atol=0.05 * float(np.abs(dkernel32).max()))
+    with pytest.raises(ValueError, match="matmul_dtype='float16'"):
+        N.matmul(x, kernel, "float16")
+
+
+def test_generator_matmul_dtype_keeps_parameters_and_changes_outputs_slightly():
+    config = tiny_config()
+    low = tiny_config("model.matmul_dtype=bfloat16")
+    params = N.init_params(config, jax.random.PRNGKey(0))
+    low_params = N.init_params(low, jax.random.PRNGKey(0))
+    assert jax.tree.structure(params) == jax.tree.structure(low_params)
+    for a, b in zip(jax.tree.leaves(params), jax.tree.leaves(low_params)):
+        assert a.dtype == b.dtype == jnp.float32
+        np.testing.assert_array_equal(a, b)
+    dims = N.generator_input_dims(config)
+    rng = np.random.default_rng(0)
+    inputs = [jnp.asarray(rng.normal(size=(3, dims[k])), jnp.float32) for k in ("state", "target", "offset")]
+    carry = jax.tree.map(lambda z: jnp.zeros((3,) + z.shape), N.initial_carry(config))
+    args = (carry, *inputs, jnp.full((3,), 0.5), jnp.asarray(rng.normal(size=(3, dims["phase"])), jnp.float32),
+            jnp.asarray(rng.normal(size=(3, dims["eps"])), jnp.float32))
+    _, out = jax.vmap(lambda *a: N.make_generator(config).apply(params["forward"], *a))(*args)
+    _, out_low = jax.vmap(lambda *a: N.make_generator(low).apply(params["forward"], *a))(*args)
+    for key in ("rotation_update", "mu"):
+        assert out_low[key].dtype == jnp.float32
+        difference = np.abs(np.asarray(out_low[key]) - np.asarray(out[key]))
+        assert 0 < difference.max() < 0.05 * np.abs(np.asarray(out[key])).max() + 1e-3
