@@ -76,8 +76,8 @@ class ModelConfig:
     disc_short_window: int = 2  # paper/RMIB short discriminator: 2 frames
     disc_long_window: int = 10  # paper/RMIB long discriminator: 10 frames
     matmul_dtype: str = "float32"  # paper precision; "bfloat16" = generator matmuls on bfloat16 operands
-    # with float32 accumulation (parameters, LSTM state, losses, optimiser stay float32): several times
-    # the matmul rate on CPUs with AMX / AVX512-BF16, GPUs and TPUs; checkpoints work with either
+    # with float32 accumulation (parameters, LSTM state, losses, optimiser stay float32): faster where the
+    # hardware has bfloat16 units (AMX CPUs: train step ~1.5x); checkpoints work with either
     disc_features: str = "positions+velocity"  # reason: FK positions relative to the root (J-1)*3,
     # scaled, plus the scaled root velocity 3: pose and trajectory, invariant to where the clip sits
 
