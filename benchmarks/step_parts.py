@@ -17,23 +17,10 @@ achieved GFLOP/s. Prints figures; asserts nothing. Data: synthetic windows as in
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import run_all  # sets the jax platform / compilation cache and sys.path
 
 import flops as flops_lib
-
-
-def median_s(fn, warmup: int = 2, reps: int = 5) -> float:
-    for _ in range(warmup):
-        fn()
-    times = []
-    for _ in range(reps):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def parts(batch: int, length: int, dtype: str, reps: int) -> list:
@@ -58,10 +45,10 @@ def parts(batch: int, length: int, dtype: str, reps: int) -> list:
     rows = []
     for name, fn in (("rollout", forward), ("generator loss + grad", jax.grad(loss))):
         compiled = jax.jit(fn).lower(generators, state.phase_params, sample).compile()
-        seconds = median_s(lambda: jax.block_until_ready(compiled(generators, state.phase_params, sample)),
-                           reps=reps)
+        seconds = run_all.timeit(lambda: jax.block_until_ready(compiled(generators, state.phase_params, sample)),
+                                 warmup=2, reps=reps)["median_s"]
         rows.append((name, seconds, flops_lib.hlo_matmul_flops(compiled)["matmul_flops"]))
-    seconds = median_s(whole.run, reps=reps)
+    seconds = run_all.timeit(whole.run, warmup=2, reps=reps)["median_s"]
     rows.append(("train step", seconds, flops_lib.hlo_matmul_flops(whole.compiled)["matmul_flops"]))
     return rows
 
