@@ -142,8 +142,10 @@ def test_weight_gradients_after_scan_equal_per_step_gradients(setup, extra):
     np.testing.assert_allclose(loss_a, loss_b, rtol=1e-6)
     lstm = grads_b[0]["forward"]["params"]["lstm"]["input_kernel"]
     assert np.any(np.asarray(lstm) != 0)  # kernel gradients are formed, not left at zero
+    # bfloat16: both paths round the same output gradients, but an f32 ulp apart may round differently
+    atol = 1e-3 if "model.matmul_dtype=bfloat16" in extra else 2e-5
     for a, b in zip(jax.tree.leaves(grads_a), jax.tree.leaves(grads_b)):
         scale = max(float(np.max(np.abs(a))), 1e-6)
-        np.testing.assert_allclose(np.asarray(b) / scale, np.asarray(a) / scale, atol=2e-5)
+        np.testing.assert_allclose(np.asarray(b) / scale, np.asarray(a) / scale, atol=atol)
     if "model.bidirectional=false" in extra:  # the unused backward generator gets zero gradients either way
         assert not any(np.any(np.asarray(g)) for g in jax.tree.leaves(grads_b[0]["backward"]))
