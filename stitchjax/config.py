@@ -212,6 +212,14 @@ def _parse_bool(text: str) -> bool:
     raise ValueError(f"{text!r} is not a boolean (use true/false)")
 
 
+# String fields that take one of a few values: checked when overridden, before any work starts.
+CHOICES = {
+    ("model", "matmul_dtype"): ("float32", "bfloat16"),
+    ("model", "variance_blend"): ("std", "var"),
+    ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
+}
+
+
 def _parse_value(text: str, kind, current):
     if kind is bool:
         return _parse_bool(text)
@@ -256,6 +264,9 @@ def apply_overrides(config: Config, overrides) -> Config:
             value = _parse_value(text, types_[field], current)
         except ValueError as err:
             raise ConfigError(f"override {item!r}: {err}") from None
+        choices = CHOICES.get((section, field))
+        if choices is not None and value not in choices:
+            raise ConfigError(f"override {item!r}: {section}.{field} must be one of {', '.join(choices)}")
         config = dataclasses.replace(config, **{section: dataclasses.replace(sub, **{field: value})})
     return config
 

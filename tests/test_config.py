@@ -31,7 +31,8 @@ def test_overrides_parse_by_type():
 
 @pytest.mark.parametrize("bad, words", [
     ("model.no_such_field=1", "no field"), ("nosection.x=1", "unknown section"),
-    ("model.latent_dim=abc", "latent_dim"), ("model.bidirectional=maybe", "boolean"), ("model.latent_dim", "=")])
+    ("model.latent_dim=abc", "latent_dim"), ("model.bidirectional=maybe", "boolean"), ("model.latent_dim", "="),
+    ("model.matmul_dtype=float16", "one of float32, bfloat16"), ("model.variance_blend=both", "one of std, var")])
 def test_bad_overrides_raise_clear_errors(bad, words):
     with pytest.raises(C.ConfigError, match=words):
         C.apply_overrides(C.Config(), [bad])
@@ -64,3 +65,14 @@ def test_every_field_documents_its_choice():
             assert lines, field.name
             idx = source.index(lines[0])
             assert "#" in lines[0] or "#" in source[idx + 1], f"{cls.__name__}.{field.name} has no comment"
+
+
+def test_override_choices_match_what_the_networks_accept():
+    from stitchjax import networks
+
+    assert set(C.CHOICES[("model", "matmul_dtype")]) == set(networks.MATMUL_DTYPES)
+    assert set(C.CHOICES[("model", "activation")]) == set(networks._ACTIVATIONS)
+    for mode in C.CHOICES[("model", "variance_blend")]:
+        networks.blend_gaussians(0.0, 0.0, 1.0, 0.0, 0.5, mode)  # accepted
+    with pytest.raises(ValueError):
+        networks.blend_gaussians(0.0, 0.0, 1.0, 0.0, 0.5, "both")
