@@ -13,17 +13,70 @@ Parts (each one jitted program, compiled ahead of time, timed after two warm-up 
 
 For each: ms per call, matmul FLOPs of the optimised HLO (loop trip counts included, ``flops.py``) and the
 achieved GFLOP/s. Prints figures; asserts nothing. Data: synthetic windows as in ``run_all.py``.
+
+``--profile DIR`` also records a ``jax.profiler`` trace of the generator loss + gradient (open it in
+Perfetto or TensorBoard) and prints the XLA operations that took the most time on the CPU compute
+threads, grouped by kind ("ynn_fusion" = matmuls through YNNPACK), and how much of the threads' time
+was busy.
 """
 from __future__ import annotations
 
 import argparse
+import collections
+import gzip
+import json
+import pathlib
+import re
 
 import run_all  # sets the jax platform / compilation cache and sys.path
 
 import flops as flops_lib
 
 
-def parts(batch: int, length: int, dtype: str, reps: int) -> list:
+PROFILE_CALLS = 3
+_BOOKKEEPING = re.compile(r"^(end: |ThunkExecutor|ThreadpoolListener|SlinkyThreadPool)")
+
+
+def thread_time_by_op(trace_dir: pathlib.Path, calls: int = PROFILE_CALLS) -> tuple[dict, float, int]:
+    """From the newest Perfetto trace under trace_dir: ({op kind: (ms per call, count per call)}, busy ms
+    per call summed over the XLA compute threads, number of those threads)."""
+    trace = max(trace_dir.rglob("perfetto_trace.json.gz"), key=lambda f: f.stat().st_mtime)
+    events = json.load(gzip.open(trace))
+    events = events["traceEvents"] if isinstance(events, dict) else events
+    names = {(e["pid"], e["tid"]): e["args"]["name"] for e in events
+             if e.get("ph") == "M" and e.get("name") == "thread_name"}
+    compute = {key for key, name in names.items() if "XLAEigen" in name}
+    total = collections.defaultdict(float)
+    count = collections.Counter()
+    for e in events:
+        if e.get("ph") == "X" and (e["pid"], e["tid"]) in compute and not _BOOKKEEPING.match(e["name"]):
+            kind = re.sub(r"\.\d+$", "", e["name"])
+            total[kind] += e.get("dur", 0.0) / 1e3
+            count[kind] += 1
+    ops = {k: (v / calls, count[k] / calls) for k, v in sorted(total.items(), key=lambda kv: -kv[1])}
+    return ops, sum(total.values()) / calls, len(compute)
+
+
+def profile(compiled, args, trace_dir: pathlib.Path, wall_s: float, top: int = 10) -> None:
+    import jax
+
+    for _ in range(2):
+        jax.block_until_ready(compiled(*args))
+    with jax.profiler.trace(str(trace_dir), create_perfetto_trace=True):
+        for _ in range(PROFILE_CALLS):
+            jax.block_until_ready(compiled(*args))
+    ops, busy_ms, threads = thread_time_by_op(trace_dir)
+    if not threads:
+        print(f"  trace in {trace_dir}: no XLA CPU compute threads found to summarise")
+        return
+    capacity = 1e3 * wall_s * threads
+    print(f"  trace in {trace_dir}; {threads} compute threads busy {busy_ms:.0f} of {capacity:.0f} thread-ms "
+          f"per call ({100 * busy_ms / capacity:.0f} %); top operations by thread time:")
+    for kind, (ms, n) in list(ops.items())[:top]:
+        print(f"    {ms:8.1f} ms  {n:7.0f} x  {kind}")
+
+
+def parts(batch: int, length: int, dtype: str, reps: int, profile_dir: pathlib.Path | None = None) -> list:
     import jax
 
     from stitchjax import losses, rollout
@@ -48,6 +101,9 @@ def parts(batch: int, length: int, dtype: str, reps: int) -> list:
         seconds = run_all.timeit(lambda: jax.block_until_ready(compiled(generators, state.phase_params, sample)),
                                  warmup=2, reps=reps)["median_s"]
         rows.append((name, seconds, flops_lib.hlo_matmul_flops(compiled)["matmul_flops"]))
+    if profile_dir is not None:  # the generator loss + grad compiled last
+        print(f"{dtype}: profiling the generator loss + grad ...")
+        profile(compiled, (generators, state.phase_params, sample), profile_dir / dtype, seconds)
     seconds = run_all.timeit(whole.run, warmup=2, reps=reps)["median_s"]
     rows.append(("train step", seconds, flops_lib.hlo_matmul_flops(whole.compiled)["matmul_flops"]))
     return rows
@@ -59,14 +115,18 @@ def main(argv=None) -> int:
     parser.add_argument("--length", type=int, default=run_all.TRAIN_LENGTH, help="transition length (default 48)")
     parser.add_argument("--dtypes", default="float32,bfloat16", help="model.matmul_dtype values to time")
     parser.add_argument("--reps", type=int, default=5, help="timed calls per part (default 5)")
+    parser.add_argument("--profile", type=pathlib.Path, default=None, metavar="DIR",
+                        help="also trace the generator loss + grad into DIR/<dtype> and print its top operations")
     args = parser.parse_args(argv)
     peak = flops_lib.theoretical_peak_flops()["flops"]
     print(f"batch {args.batch}, transition length {args.length}; theoretical float32 peak {peak / 1e9:.1f} GFLOP/s")
-    print(f"{'matmul dtype':<13} {'part':<22} {'ms':>8} {'GFLOP':>8} {'GFLOP/s':>8} {'% fp32 peak':>11}")
+    rows = []
     for dtype in [d.strip() for d in args.dtypes.split(",") if d.strip()]:
-        for name, seconds, flop in parts(args.batch, args.length, dtype, args.reps):
-            print(f"{dtype:<13} {name:<22} {1e3 * seconds:8.0f} {flop / 1e9:8.1f} {flop / seconds / 1e9:8.1f} "
-                  f"{100 * flop / seconds / peak:10.1f}%")
+        rows += [(dtype, *row) for row in parts(args.batch, args.length, dtype, args.reps, args.profile)]
+    print(f"{'matmul dtype':<13} {'part':<22} {'ms':>8} {'GFLOP':>8} {'GFLOP/s':>8} {'% fp32 peak':>11}")
+    for dtype, name, seconds, flop in rows:
+        print(f"{dtype:<13} {name:<22} {1e3 * seconds:8.0f} {flop / 1e9:8.1f} {flop / seconds / 1e9:8.1f} "
+              f"{100 * flop / seconds / peak:10.1f}%")
     return 0
 
 
