@@ -75,11 +75,11 @@ class ModelConfig:
     disc_widths: tuple = (512, 256)  # reason: RMIB discriminators: temporal conv then 2 dense layers
     disc_short_window: int = 2  # paper/RMIB short discriminator: 2 frames
     disc_long_window: int = 10  # paper/RMIB long discriminator: 10 frames
+    disc_features: str = "positions+velocity"  # reason: FK positions relative to the root (J-1)*3,
+    # scaled, plus the scaled root velocity 3: pose and trajectory, invariant to where the clip sits
     matmul_dtype: str = "float32"  # paper precision; "bfloat16" = generator matmuls on bfloat16 operands
     # with float32 accumulation (parameters, LSTM state, losses, optimiser stay float32): faster where the
     # hardware has bfloat16 units (AMX CPUs: train step ~1.5x); checkpoints work with either
-    disc_features: str = "positions+velocity"  # reason: FK positions relative to the root (J-1)*3,
-    # scaled, plus the scaled root velocity 3: pose and trajectory, invariant to where the clip sits
 
 
 @dataclasses.dataclass(frozen=True)

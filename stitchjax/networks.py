@@ -31,9 +31,9 @@ import jax
 import jax.numpy as jnp
 
 __all__ = [
-    "MATMUL_DTYPES", "matmul", "kernel_matmul", "Dense", "LSTMCell", "MLP", "MoEDense", "Generator", "Discriminator", "init_params", "make_generator",
-    "make_discriminator", "initial_carry", "blend_gaussians", "disc_feature_dim", "phase_dim",
-    "generator_input_dims",
+    "MATMUL_DTYPES", "matmul", "kernel_matmul", "Dense", "LSTMCell", "MLP", "MoEDense", "Generator",
+    "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry", "blend_gaussians",
+    "disc_feature_dim", "phase_dim", "generator_input_dims",
 ]
 
 _ACTIVATIONS = {"elu": nn.elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
