@@ -198,11 +198,12 @@ def with_matmul_dtype(model: Model, dtype: str) -> Model:
     accumulation either way; see ``networks.matmul``). Parameters are unchanged, so a float32-trained
     model can sample in bfloat16: ~1.8x faster on CPUs with AMX / AVX512-BF16 (benchmarks/README.md); with
     the same seed, joint positions move by ~0.2 cm on average (up to ~1 cm mid-transition)."""
-    from stitchjax import networks
+    from stitchjax import config as config_lib
 
-    if dtype not in networks.MATMUL_DTYPES:
-        raise InbetweenError(f"matmul dtype {dtype!r}: use one of {', '.join(networks.MATMUL_DTYPES)}")
-    config = dataclasses.replace(model.config, model=dataclasses.replace(model.config.model, matmul_dtype=dtype))
+    try:
+        config = config_lib.apply_overrides(model.config, [f"model.matmul_dtype={dtype}"])
+    except config_lib.ConfigError as err:
+        raise InbetweenError(str(err)) from None
     return dataclasses.replace(model, config=config)
 
 
