@@ -18,7 +18,7 @@ def get_config() -> Config:
         base.data,
         dataset="h36m",
         train_subjects=("S1", "S5", "S6", "S7", "S8"),  # paper: standard H3.6M training subjects
-        window=50,  # paper: same windowing as LAFAN1
+        window=base.data.window,  # same windowing as LAFAN1 (L up to 50 generated frames + 2 keyframes)
         offset=20,  # paper
         fps=25.0,  # stitchjax.h36m keeps every second frame of the 50 Hz files
         parents=tuple(h36m.PARENTS),  # the 21 joints stitchjax.h36m keeps

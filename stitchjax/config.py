@@ -35,7 +35,8 @@ class DataConfig:
     dataset: str = "lafan1"  # reason: which loader builds the windows ("lafan1" or "h36m")
     data_dir: str = ""  # reason: empty = ../shared/data/<dataset> relative to the repo, or set it
     train_subjects: tuple = ("subject1", "subject2", "subject3", "subject4")  # paper (RMIB split)
-    window: int = 50  # paper: training windows of 50 frames
+    window: int = 52  # reason: the protocol scores transitions of up to L = 50 generated frames between two
+    # keyframes (DESIGN.md §6), so training windows hold 50 + 2 frames (the paper's "50" without keyframes)
     offset: int = 20  # paper: window offset 20
     fps: float = 30.0  # LAFAN1 frame rate
     position_scale: float = 100.0  # reason: cm -> m so FK / stitch / offset inputs are O(1) on LAFAN1
@@ -64,8 +65,17 @@ class ModelConfig:
     num_experts: int = 4  # paper
     gating_widths: tuple = (64, 64)  # reason: MANN gating network is a small 3-layer MLP on the phase
     activation: str = "elu"  # reason: MANN experts and gating use ELU
-    decoder_uses_lstm: bool = True  # reason: decoder also sees the LSTM output, so it keeps temporal
-    # context even when the KL term pulls z to the prior (paper: "embeddings ... input of LSTM")
+    posterior: str = "next_frame"  # reason: the paper does not say where z's information comes from
+    # (DESIGN.md §5). "next_frame": training draws z from q(z | LSTM state, ground-truth next frame) and the
+    # KL term is KL(q || p) with p the latent-interpolation prior; inference draws z from p. "none": z is
+    # drawn from p at training too (no information in z: measured ~1 cm between samples, results/README.md)
+    z_every_layer: bool = True  # reason: z is concatenated to the input of every decoder layer, as in the
+    # MANN/MVAE experts, so the decoder cannot wash it out after the first layer
+    decoder_uses_lstm: bool = False  # reason: True also feeds the LSTM output to the decoder, a
+    # deterministic path around z; with it the posterior collapses (measured KL(q||p) 0.02, DESIGN.md §5)
+    gamma_schedule: str = "direction"  # reason: paper: gamma rises from 0 at the generator's first frame
+    # to 1 at the frame it targets, so n / (frames this direction makes); "transition" = n / (L + 1) for
+    # both directions (reaches only ~0.57 at L = 48 with bidirectional stitching)
     time_to_target_input: bool = True  # reason: offset encoder gets frames-to-target / fps; without it
     # the generator cannot know when it must arrive (RMIB uses a time-to-arrival signal too)
     stitch_buffer: int = 4  # reason: K (paper leaves it open); 2K = 8 overlap frames, clipped to L//2
@@ -87,7 +97,16 @@ class LossConfig:
     beta_rotation: float = 1.0  # paper beta1
     beta_velocity: float = 1.0  # paper beta2
     beta_contact: float = 0.1  # paper beta3
-    kl_weight: float = 1.0  # paper alpha1
+    kl_weight: float = 1.0  # paper alpha1 (with model.posterior: the weight of KL(q || p))
+    kl_warmup_steps: int = 0  # reason: > 0 ramps the KL weight linearly from 0 over this many steps, so the
+    # decoder learns to use z before the KL term pulls q towards p
+    free_bits: float = 0.0  # reason: nats per frame (summed over latent dims): KL(q || p) below this costs
+    # nothing, so the posterior keeps at least this much information (Kingma et al. 2016)
+    prior_kl_weight: float = 0.0  # reason: the paper's KL(p || N(0, I)) as an extra term on the prior when
+    # model.posterior is used (0 = off); with posterior "none" kl_weight already weights exactly that term
+    prior_rollout: bool = False  # reason: True also rolls out every batch with z drawn from the prior and
+    # takes the adversarial and stitching terms on that rollout, so prior samples are trained to stitch and
+    # look natural (the posterior rollout alone never sees them); costs a second rollout per step
     stitch_weight: float = 0.5  # paper alpha2 (0 = "no stitching loss" ablation)
     fk_weight: float = 0.5  # paper alpha3
     disc_weight: float = 0.1  # paper alpha4 (scales L_D in the discriminator update)
@@ -104,23 +123,21 @@ class TrainConfig:
     weight_decay: float = 1e-5  # paper
     batch_size: int = 32  # paper
     min_length: int = 5  # paper: progressive schedule starts at 5
-    max_length: int = 48  # reason: 50-frame windows hold 48 in-betweens + 2 keyframes (paper's "50")
+    max_length: int = 50  # paper: progressive schedule up to 50; L counts generated frames (window - 2)
     length_step: int = 1  # paper: +1 ...
     epochs_per_length: int = 2  # paper: ... every 2 epochs
-    length_counts_keyframes: bool = False  # reason: DESIGN.md §6 scores L generated frames between the keyframes
-    num_epochs: int = 100  # reason: (5 -> 48 takes 86 epochs) + some epochs at the full length
+    num_epochs: int = 100  # reason: (5 -> 50 takes 90 epochs) + some epochs at the full length
     seed: int = 0  # reason: reproducibility
     log_every: int = 100  # reason: steps between metric logs
     checkpoint_every: int = 1  # reason: epochs between checkpoints
     max_to_keep: int = 3  # reason: orbax CheckpointManager retention
-    output_dir: str = "runs"  # reason: checkpoints + config land in output_dir/<name>
     # --- run control (stitchjax/train.py) ---
     max_steps: int = 0  # reason: 0 = num_epochs epochs; > 0 caps the run (bin/train --max-steps)
     checkpoint_every_steps: int = 0  # reason: > 0 overrides checkpoint_every (epochs) with a step count
     weight_gradients_after_scan: bool = True  # reason: same gradients, faster: each generator kernel's
     # gradient is one matmul over all rollout steps after the scan, not one small matmul per step inside
     # it (rollout.py docstring; benchmarks/README.md has the measured difference)
-    length_buckets: tuple = (12, 24, 48)  # reason: static scan lengths (window cut to bucket + 2 frames,
+    length_buckets: tuple = (12, 24, 50)  # reason: static scan lengths (window cut to bucket + 2 frames,
     # one compile each) instead of one traced length masked in the full window. Measured on 2 loaded CPU
     # cores, lafan1 model, batch 32 (benchmarks/train_step.py): window 50 = 6.26 s/step, 96 s compile;
     # bucket 12 = 2.92 s/step, 65 s compile; bucket 24 = 4.16 s/step, 90 s compile: the 100-epoch
@@ -142,6 +159,8 @@ class PhaseConfig:
     steps: int = 5000  # reason: the phase regression converges quickly
     batch_size: int = 512  # reason: frames are cheap
     learning_rate: float = 1e-3  # reason: Adam default scale for a small MLP
+    include_reversed: bool = True  # reason: the backward generator feeds the phase network time-reversed
+    # states, so it is also pretrained on time-reversed windows (labels fitted on the reversed contacts)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -216,6 +235,8 @@ def _parse_bool(text: str) -> bool:
 CHOICES = {
     ("model", "matmul_dtype"): ("float32", "bfloat16"),
     ("model", "variance_blend"): ("std", "var"),
+    ("model", "posterior"): ("next_frame", "none"),
+    ("model", "gamma_schedule"): ("direction", "transition"),
     ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
 }
 
@@ -280,8 +301,21 @@ def to_dict(config: Config) -> dict:
     return json.loads(json.dumps(dataclasses.asdict(config)))
 
 
+# What a config saved before a field existed meant: such a checkpoint restores as it was trained.
+LEGACY_VALUES = {
+    ("model", "posterior"): "none",
+    ("model", "z_every_layer"): False,
+    ("model", "decoder_uses_lstm"): True,
+    ("model", "gamma_schedule"): "transition",
+    ("phase", "include_reversed"): False,
+}
+# Fields that were removed (read nowhere); ignored when a saved config has them.
+RETIRED_FIELDS = {("train", "length_counts_keyframes"), ("train", "output_dir")}
+
+
 def from_dict(d: dict) -> Config:
-    """Inverse of :func:`to_dict`. Unknown keys raise ConfigError; missing keys take defaults."""
+    """Inverse of :func:`to_dict`. Unknown keys raise ConfigError; missing keys take their
+    :data:`LEGACY_VALUES` entry (the behaviour before the field existed), else the default."""
     kwargs = {}
     classes = {f.name: f.default_factory for f in dataclasses.fields(Config) if f.name in _SECTIONS}
     for key, value in d.items():
@@ -292,8 +326,11 @@ def from_dict(d: dict) -> Config:
             raise ConfigError(f"unknown config section {key!r}")
         cls = classes[key]
         types_ = _field_types(cls)
-        fields = {}
+        fields = {name: legacy for (sec, name), legacy in LEGACY_VALUES.items()
+                  if sec == key and name not in value}
         for name, v in value.items():
+            if (key, name) in RETIRED_FIELDS:
+                continue
             if name not in types_:
                 raise ConfigError(f"unknown field {key}.{name} (saved by another stitchjax version?)")
             kind = types_[name]

@@ -1,8 +1,12 @@
 """Losses (paper section 3.2): state, KL, FK, stitching, LSGAN; the generator and discriminator objectives.
 
-Overall (paper Eq. 8, weights in ``config.loss``)::
+Overall (paper Eq. 9, weights in ``config.loss``)::
 
     L = L_state + 1.0 L_kl + 0.5 L_stitch + 0.5 L_fk + 0.1 L_D + 0.1 L_G
+
+L_kl: with ``model.posterior="next_frame"`` KL(q || p) of the posterior against the latent-interpolation
+prior (``loss.free_bits``, warm-up ``loss.kl_warmup_steps``, optional ``loss.prior_kl_weight`` KL(p || N(0, I)));
+with "none" the paper's KL(p || N(0, I)).
 
 L_state, L_kl and L_fk are averaged over the forward and backward generators. The generator update
 minimises ``generator_loss`` (everything but L_D); the discriminator update minimises
@@ -25,7 +29,8 @@ from stitchjax import rollout as rollout_lib
 
 __all__ = [
     "masked_mean", "state_loss", "kl_loss", "fk_loss", "stitching_loss", "lsgan_generator_loss",
-    "lsgan_discriminator_loss", "disc_features", "direction_targets", "generator_loss",
+    "lsgan_discriminator_loss", "disc_features", "direction_targets", "generator_loss", "gaussian_kl",
+    "posterior_kl_loss", "kl_warmup", "adversarial_generator_terms",
     "discriminator_loss",
 ]
 
@@ -63,6 +68,29 @@ def kl_loss(mu, logvar, mask, reduction: str = "sum"):
     kl = 0.5 * (jnp.square(mu) + jnp.exp(logvar) - 1.0 - logvar)
     per_frame = jnp.sum(kl, axis=-1) if reduction == "sum" else jnp.mean(kl, axis=-1)
     return masked_mean(per_frame, mask)
+
+
+def gaussian_kl(mu_q, logvar_q, mu_p, logvar_p, reduction: str = "sum"):
+    """KL(q || p) between diagonal Gaussians per frame, (..., latent) -> (...,) (sum or mean over dims)."""
+    kl = 0.5 * (logvar_p - logvar_q + (jnp.exp(logvar_q) + jnp.square(mu_q - mu_p)) / jnp.exp(logvar_p) - 1.0)
+    return jnp.sum(kl, axis=-1) if reduction == "sum" else jnp.mean(kl, axis=-1)
+
+
+def posterior_kl_loss(out_dir, mask, free_bits: float = 0.0, reduction: str = "sum"):
+    """KL(q || p) of one direction: q the posterior, p the latent-interpolation prior (``mu_blend``), per frame.
+
+    Returns (raw, penalised): the mean over valid frames of the KL, and of max(KL, free_bits) (free bits:
+    below ``free_bits`` nats per frame the term has no gradient, so q keeps that much information)."""
+    kl = gaussian_kl(out_dir["mu_posterior"], out_dir["logvar_posterior"], out_dir["mu_blend"],
+                     out_dir["logvar_blend"], reduction)
+    return masked_mean(kl, mask), masked_mean(jnp.maximum(kl, free_bits), mask)
+
+
+def kl_warmup(step, warmup_steps: int):
+    """KL weight factor min(1, step / warmup_steps) (1 when warmup_steps <= 0)."""
+    if warmup_steps <= 0:
+        return jnp.ones((), jnp.float32)
+    return jnp.clip(jnp.asarray(step, jnp.float32) / float(warmup_steps), 0.0, 1.0)
 
 
 def fk_loss(pred_positions, true_positions, mask, position_scale: float, reduction: str = "sum"):
@@ -110,30 +138,24 @@ def _window_mask(motion_mask, window: int):
 
 
 def direction_targets(batch, length, num_steps: int, backward: bool, config):
-    """Ground truth for one direction's per-step outputs (entry i = forward frame i + 1, or backward
-    frame L - i), in that direction's time: "rotations", "velocities" (scaled), "contacts",
-    "global_positions", each with a leading (B, num_steps)."""
-    length = jnp.asarray(length, jnp.int32)
-    i = jnp.arange(num_steps + 1, dtype=jnp.int32)  # entry 0 = the keyframe the direction starts from
-    frames = (length + 1 - i) if backward else i
-
-    def take(x):
-        return jnp.take(x, frames, axis=1, mode="clip")
-
-    root = take(batch["root_positions"])
-    velocity = (root[:, 1:] - root[:, :-1]) / config.data.velocity_scale
-    return {"rotations": take(batch["rotations"])[:, 1:], "velocities": velocity,
-            "contacts": take(batch["contacts"])[:, 1:], "global_positions": take(batch["global_positions"])[:, 1:]}
+    """Ground truth for one direction's per-step outputs (``rollout.direction_frames``)."""
+    return rollout_lib.direction_frames(batch, length, num_steps, backward, config)
 
 
 def _direction_terms(out_dir, target, config):
+    """Per-direction terms: "state" and its parts, "fk", "kl" (the KL that is reported), "kl_penalty" (what
+    the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I)))."""
     lc = config.loss
     mask = out_dir["mask"]
     state, parts = state_loss(out_dir, target, mask, lc)
-    kl = kl_loss(out_dir["mu_blend"], out_dir["logvar_blend"], mask, lc.reduction)
+    prior_kl = kl_loss(out_dir["mu_blend"], out_dir["logvar_blend"], mask, lc.reduction)
+    if config.model.posterior == "none":
+        kl = penalty = prior_kl  # the paper's term: the sampling distribution against N(0, I)
+    else:
+        kl, penalty = posterior_kl_loss(out_dir, mask, lc.free_bits, lc.reduction)
     fk = fk_loss(out_dir["global_positions"], target["global_positions"], mask, config.data.position_scale,
                  lc.reduction)
-    return {"state": state, "kl": kl, "fk": fk, **parts}
+    return {"state": state, "kl": kl, "kl_penalty": penalty, "kl_prior": prior_kl, "fk": fk, **parts}
 
 
 def _disc_scores(params, config, features):
@@ -146,22 +168,47 @@ def _real_features(batch, config, num_frames: int):
     return disc_features(batch["global_positions"][:, :num_frames], batch["root_positions"][:, :num_frames], config)
 
 
-def generator_loss(params, phase_params, batch, key, config, length):
-    """Generator objective for one batch (one rollout).
+def adversarial_generator_terms(params, out, config) -> dict:
+    """LSGAN generator terms of a stitched rollout: "adv_g_short", "adv_g_long", "adv_g" (their sum)."""
+    fake = disc_features(out["global_positions"], out["root_positions"], config)
+    if not config.loss.gen_weight:
+        zero = jnp.zeros((), fake.dtype)
+        return {"adv_g_short": zero, "adv_g_long": zero, "adv_g": zero}
+    mask = out["mask"]
+    short, long = _disc_scores(params, config, fake)
+    terms = {"adv_g_short": lsgan_generator_loss(short, _window_mask(mask, config.model.disc_short_window)),
+             "adv_g_long": lsgan_generator_loss(long, _window_mask(mask, config.model.disc_long_window))}
+    terms["adv_g"] = terms["adv_g_short"] + terms["adv_g_long"]
+    return terms
+
+
+def _overlap_stitching_loss(out, config):
+    ov = out["overlap"]
+    return stitching_loss(ov["forward_positions"], ov["backward_positions"], ov["mask"],
+                          config.data.position_scale, config.loss.reduction)
+
+
+def generator_loss(params, phase_params, batch, key, config, length, kl_scale=1.0):
+    """Generator objective for one batch (paper Eq. 9 without L_D).
 
     Args:
       params: {"forward", "backward", "disc_short", "disc_long"}.
       phase_params: frozen phase network params (or None: zero phase features).
       batch: dict from ``features.prepare_dataset`` with leading (B, T); T - 2 is the maximum length.
       key: PRNG key; config: Config (static); length: traced int transition length.
+      kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`).
+    One rollout (z from the posterior when ``model.posterior`` has one) gives the state, FK and KL terms; with
+    ``loss.prior_rollout`` a second rollout with z from the prior gives the stitching and adversarial terms
+    (else the first one does).
     Returns:
-      (total, terms, generated): total scalar; terms dict of scalars "state", "kl", "fk", "stitch",
-      "adv_g", "adv_g_short", "adv_g_long", "rotation", "velocity", "contact" (and per-direction
+      (total, terms, generated): total scalar; terms dict of scalars "state", "kl", "kl_prior", "fk",
+      "stitch", "adv_g", "adv_g_short", "adv_g_long", "rotation", "velocity", "contact" (and per-direction
       "state_forward", ...); generated = {"features" (B, T, F) stop-gradient discriminator input of
-      the stitched motion, "mask" (B, T)} for :func:`discriminator_loss`.
+      the stitched motion the adversarial terms saw, "mask" (B, T)} for :func:`discriminator_loss`.
     """
     lc = config.loss
-    out = rollout_lib.rollout_batch(params, phase_params, batch, key, config, length)
+    posterior_key, prior_key = jax.random.split(key)
+    out = rollout_lib.rollout_batch(params, phase_params, batch, posterior_key, config, length)
     n = out["forward"]["mask"].shape[1]
     directions = ["forward"] + (["backward"] if config.model.bidirectional else [])
     terms = {}
@@ -169,25 +216,22 @@ def generator_loss(params, phase_params, batch, key, config, length):
         target = direction_targets(batch, length, n, name == "backward", config)
         for term, value in _direction_terms(out[name], target, config).items():
             terms[f"{term}_{name}"] = value
-    for term in ("state", "kl", "fk", "rotation", "velocity", "contact"):
+    for term in ("state", "kl", "kl_penalty", "kl_prior", "fk", "rotation", "velocity", "contact"):
         terms[term] = sum(terms[f"{term}_{d}"] for d in directions) / len(directions)
-    ov = out["overlap"]
-    terms["stitch"] = stitching_loss(ov["forward_positions"], ov["backward_positions"], ov["mask"],
-                                     config.data.position_scale, lc.reduction)
-
-    fake = disc_features(out["global_positions"], out["root_positions"], config)
-    mask = out["mask"]
-    total = lc.kl_weight * terms["kl"] + lc.stitch_weight * terms["stitch"] + lc.fk_weight * terms["fk"]
-    total = total + terms["state"]
-    if lc.gen_weight:
-        short, long = _disc_scores(params, config, fake)
-        terms["adv_g_short"] = lsgan_generator_loss(short, _window_mask(mask, config.model.disc_short_window))
-        terms["adv_g_long"] = lsgan_generator_loss(long, _window_mask(mask, config.model.disc_long_window))
-    else:
-        terms["adv_g_short"] = terms["adv_g_long"] = jnp.zeros((), total.dtype)
-    terms["adv_g"] = terms["adv_g_short"] + terms["adv_g_long"]
-    total = total + lc.gen_weight * terms["adv_g"]
-    generated = {"features": jax.lax.stop_gradient(fake), "mask": mask}
+    sampled = out
+    if lc.prior_rollout and config.model.posterior != "none":
+        sampled = rollout_lib.rollout_batch(params, phase_params, batch, prior_key, config, length, posterior=False)
+        terms["stitch_posterior"] = jax.lax.stop_gradient(_overlap_stitching_loss(out, config))
+    terms["stitch"] = _overlap_stitching_loss(sampled, config)
+    terms.update(adversarial_generator_terms(params, sampled, config))
+    kl_weight = lc.kl_weight * kl_scale
+    prior_kl = lc.prior_kl_weight * terms["kl_prior"] if config.model.posterior != "none" else 0.0
+    total = (terms["state"] + kl_weight * terms.pop("kl_penalty") + prior_kl + lc.stitch_weight * terms["stitch"]
+             + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"])
+    for name in directions:
+        terms.pop(f"kl_penalty_{name}")
+    fake = disc_features(sampled["global_positions"], sampled["root_positions"], config)
+    generated = {"features": jax.lax.stop_gradient(fake), "mask": sampled["mask"]}
     return total, terms, generated
 
 

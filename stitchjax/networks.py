@@ -5,9 +5,11 @@ Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step:
     state (S) ──► state encoder  (3 FC) ─┐
     offset (J*4+3 [+1]) ► offset encoder (3 FC) ─┼─ concat ─► LSTM cell ─► h ─┬─► FC ─► (mu, logvar)   current
     target (S) ─► target encoder (3 FC) ─┘                                    └─► FC ─► (mu_t, logvar_t) target
-    latent interpolation: N((1-g) mu + g mu_t, sigma_g^2), z = mu_g + sigma_g * eps
-    decoder: [z, state, target, h] ─► mixture of E experts (gating MLP on the phase features)
-             ─► (root velocity 3, quaternion update J*4, contact logits C)
+    latent interpolation (Eq. 1): prior p = N((1-g) mu + g mu_t, sigma_g^2)
+    posterior (training, model.posterior="next_frame"): q = N(mu_q, sigma_q^2) from [h, ground-truth next frame]
+    z = mu + sigma * eps from q at training, from p at inference (and always with posterior "none")
+    decoder: [z, state, target (, h)] ─► mixture of E experts (gating MLP on the phase features), z also fed
+             to every later layer ─► (root velocity 3, quaternion update J*4, contact logits C)
 
 The expert blend mixes each layer's expert *outputs* (``einsum`` over the expert axis), never a blended
 weight matrix per example.
@@ -32,7 +34,7 @@ import jax.numpy as jnp
 
 __all__ = [
     "MATMUL_DTYPES", "matmul", "kernel_matmul", "Dense", "LSTMCell", "MLP", "MoEDense", "Generator",
-    "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry", "blend_gaussians",
+    "Posterior", "LatentMLP", "decode", "sample_latent", "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry", "blend_gaussians",
     "disc_feature_dim", "phase_dim", "generator_input_dims",
 ]
 
@@ -212,13 +214,18 @@ def blend_gaussians(mu, logvar, mu_t, logvar_t, gamma, mode: str = "std"):
     raise ValueError(f"model.variance_blend={mode!r}: use 'std' or 'var'")
 
 
+def sample_latent(mu, logvar, eps):
+    """Reparameterised draw z = mu + exp(logvar / 2) * eps (eps standard normal, same shape)."""
+    return mu + jnp.exp(0.5 * logvar) * eps
+
+
 class Generator(nn.Module):
     """One S-CVAE step. See the module docstring; ``config`` is the whole Config (static, hashable)."""
 
     config: Any
 
     @nn.compact
-    def __call__(self, carry, state, target, offset, gamma, phase, eps):
+    def __call__(self, carry, state, target, offset, gamma, phase, eps, next_state=None):
         """One step for one example (vmap for batches).
 
         Args:
@@ -228,9 +235,13 @@ class Generator(nn.Module):
           gamma: () latent interpolation weight in [0, 1].
           phase: (P,) phase features of the current frame (ignored without phase modulation).
           eps: (latent_dim,) standard normal noise.
+          next_state: (S,) ground-truth state of the frame this step makes (training only) or None. With
+            ``model.posterior="next_frame"`` it feeds the recognition network q(z | h, next_state) and z is
+            drawn from q; None draws z from the prior p (inference).
         Returns:
           (new_carry, outputs) with outputs: "velocity" (3,), "rotation_update" (J*4,),
           "contact_logits" (C,), "mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend"
+          (the prior p), "mu_posterior", "logvar_posterior" (q; equal to the prior's when z came from it)
           (latent_dim,) each.
         """
         m = self.config.model
@@ -250,30 +261,91 @@ class Generator(nn.Module):
             mu_b, logvar_b = blend_gaussians(mu, logvar, mu_t, logvar_t, gamma, m.variance_blend)
         else:
             mu_b, logvar_b = mu, logvar
-        z = mu_b + jnp.exp(0.5 * logvar_b) * eps
-
-        parts = [z, state, target] + ([h] if m.decoder_uses_lstm else [])
-        y = jnp.concatenate(parts, axis=-1)
-        num_out = 3 + data.num_joints * 4 + data.num_contacts
-        widths = tuple(m.decoder_widths) + (num_out,)
-        if m.phase_modulation:
-            gating = MLP(tuple(m.gating_widths) + (m.num_experts,), m.activation, activate_last=False,
-                         matmul_dtype=dt, name="gating")(phase)
-            coefficients = jax.nn.softmax(gating, axis=-1)
-            act = activation_fn(m.activation)
-            for i, width in enumerate(widths):
-                y = MoEDense(width, m.num_experts, dt, name=f"expert_{i}")(y, coefficients)
-                if i < len(widths) - 1:
-                    y = act(y)
+        if m.posterior == "next_frame" and next_state is not None:
+            mu_q, logvar_q = Posterior(latent, m.encoder_widths[-1], m.activation, dt, name="posterior")(
+                h, state, next_state)
         else:
-            y = MLP(widths, m.activation, activate_last=False, matmul_dtype=dt, name="decoder")(y)
+            mu_q, logvar_q = mu_b, logvar_b
+        z = sample_latent(mu_q, logvar_q, eps)
+
+        y = jnp.concatenate([z, state, target] + ([h] if m.decoder_uses_lstm else []), axis=-1)
+        num_out = 3 + data.num_joints * 4 + data.num_contacts
+        y = decode(y, z, phase, m, num_out)
         n = data.num_joints * 4
         outputs = {
             "velocity": y[..., :3], "rotation_update": y[..., 3:3 + n], "contact_logits": y[..., 3 + n:],
             "mu": mu, "logvar": logvar, "mu_target": mu_t, "logvar_target": logvar_t,
-            "mu_blend": mu_b, "logvar_blend": logvar_b,
+            "mu_blend": mu_b, "logvar_blend": logvar_b, "mu_posterior": mu_q, "logvar_posterior": logvar_q,
         }
         return carry, outputs
+
+
+class Posterior(nn.Module):
+    """Recognition network q(z | h, next frame): [h, state, next_state - state] -> (mu_q, logvar_q).
+
+    h (H,) LSTM output (it has seen the current frame, the target and their offset); state, next_state (S,).
+    One hidden layer, then a linear head of 2 * latent_dim.
+    """
+
+    latent_dim: int
+    width: int
+    activation: str = "elu"
+    matmul_dtype: str = "float32"
+
+    @nn.compact
+    def __call__(self, h, state, next_state):
+        x = jnp.concatenate([h, next_state, next_state - state], axis=-1)
+        x = activation_fn(self.activation)(Dense(self.width, self.matmul_dtype, name="hidden")(x))
+        out = Dense(2 * self.latent_dim, self.matmul_dtype, name="head")(x)
+        return out[..., :self.latent_dim], out[..., self.latent_dim:]
+
+
+def decode(y, z, phase, model_config, num_out: int):
+    """The decoder, called inside :class:`Generator`: y (in,) -> (num_out,).
+
+    Phase modulation: a mixture of E experts per layer (``expert_0``, ...) whose coefficients come from the
+    gating MLP (``gating``) on the phase features; otherwise a plain MLP (``decoder``). With
+    ``model.z_every_layer`` z is concatenated to the input of every layer after the first (MANN / MVAE),
+    so the latent reaches the output through every layer. Parameter names are those of checkpoints
+    written before ``z_every_layer`` existed.
+    """
+    m = model_config
+    widths = tuple(m.decoder_widths) + (num_out,)
+    dt = m.matmul_dtype
+    if not m.phase_modulation:
+        return LatentMLP(widths, m.activation, m.z_every_layer, dt, name="decoder")(y, z)
+    gating = MLP(tuple(m.gating_widths) + (m.num_experts,), m.activation, activate_last=False,
+                 matmul_dtype=dt, name="gating")(phase)
+    coefficients = jax.nn.softmax(gating, axis=-1)
+    act = activation_fn(m.activation)
+    for i, width in enumerate(widths):
+        if i > 0 and m.z_every_layer:
+            y = jnp.concatenate([y, z], axis=-1)
+        y = MoEDense(width, m.num_experts, dt, name=f"expert_{i}")(y, coefficients)
+        if i < len(widths) - 1:
+            y = act(y)
+    return y
+
+
+class LatentMLP(nn.Module):
+    """MLP y -> out with z also concatenated to the input of every layer after the first when
+    ``z_every_layer``; no activation after the last layer. Layers are named dense_0, dense_1, ... as in MLP."""
+
+    widths: tuple
+    activation: str = "elu"
+    z_every_layer: bool = True
+    matmul_dtype: str = "float32"
+
+    @nn.compact
+    def __call__(self, y, z):
+        act = activation_fn(self.activation)
+        for i, width in enumerate(self.widths):
+            if i > 0 and self.z_every_layer:
+                y = jnp.concatenate([y, z], axis=-1)
+            y = Dense(width, self.matmul_dtype, name=f"dense_{i}")(y)
+            if i < len(self.widths) - 1:
+                y = act(y)
+        return y
 
 
 class Discriminator(nn.Module):
@@ -350,8 +422,9 @@ def init_params(config, key, num_joints: int | None = None) -> dict:
     dummy = {name: jnp.zeros((size,), jnp.float32) for name, size in dims.items()}
 
     def init_generator(k):
+        next_state = dummy["state"] if config.model.posterior != "none" else None
         return generator.init(k, initial_carry(config), dummy["state"], dummy["target"], dummy["offset"],
-                              jnp.zeros((), jnp.float32), dummy["phase"], dummy["eps"])
+                              jnp.zeros((), jnp.float32), dummy["phase"], dummy["eps"], next_state)
 
     k_fwd, k_bwd, k_short, k_long = jax.random.split(key, 4)
     frames = max(config.model.disc_long_window, config.model.disc_short_window)

@@ -20,7 +20,12 @@ Ablations: ``model.bidirectional_aligning=False`` -> each generator targets the 
 never recompiles. Once a generator has made its frames it holds its last frame (what the other one then
 targets). The backward sequence uses its own time direction: its root velocities are reversed-time
 velocities; a backward frame used as the forward generator's target gets its velocity negated.
-Latent interpolation weight for the step that makes the n-th frame of a direction: gamma = n / (L + 1).
+Latent interpolation weight (:func:`interpolation_weight`) for the step that makes the n-th of the N frames of
+a direction: gamma = n / N (``model.gamma_schedule="direction"``: 0 at the generator's start, 1 at the last
+frame it makes, next to the frame it targets) or n / (L + 1) ("transition").
+
+Latent source: with ``ground_truth`` (training, ``model.posterior="next_frame"``) every step draws z from the
+posterior q(z | h, ground-truth state of the frame it makes); without it z comes from the prior p (inference).
 
 Gradients (``train.weight_gradients_after_scan``, on by default): differentiating a ``lax.scan`` makes
 every backward step form and accumulate its own weight gradient x^T dy from one step's few rows (B = 32),
@@ -43,10 +48,11 @@ from stitchjax import networks
 from stitchjax import rotations as R
 from stitchjax import skeleton as skel
 
-__all__ = ["rollout", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule",
-           "zero_probes", "kernel_gradients", "GAUSSIAN_KEYS"]
+__all__ = ["rollout", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule", "interpolation_weight",
+           "direction_frames", "next_frame_states", "zero_probes", "kernel_gradients", "GAUSSIAN_KEYS"]
 
-GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend")
+GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend", "mu_posterior",
+                 "logvar_posterior")
 
 
 def num_steps(config, max_length: int) -> int:
@@ -66,6 +72,20 @@ def schedule(config, length):
     return h, k, h + k, length - h + k
 
 
+def interpolation_weight(config, frame_number, frames_in_direction, length):
+    """Latent interpolation weight gamma (paper Eq. 1) for the step making a direction's ``frame_number``-th
+    frame (1-based) of ``frames_in_direction``: n / N ("direction") or n / (L + 1) ("transition"), in [0, 1]."""
+    dtype = jnp.float32
+    n = jnp.asarray(frame_number).astype(dtype)
+    if config.model.gamma_schedule == "transition":
+        total = jnp.asarray(length).astype(dtype) + 1.0
+    elif config.model.gamma_schedule == "direction":
+        total = jnp.maximum(jnp.asarray(frames_in_direction).astype(dtype), 1.0)
+    else:
+        raise ValueError(f"model.gamma_schedule={config.model.gamma_schedule!r}: use 'direction' or 'transition'")
+    return jnp.clip(n / total, 0.0, 1.0)
+
+
 def _phase(config, phase_params, state):
     if not config.model.phase_modulation or phase_params is None:
         return jnp.zeros(state.shape[:-1] + (networks.phase_dim(config),), state.dtype)
@@ -76,8 +96,11 @@ def _phase(config, phase_params, state):
     return phase_lib.phase_features(phase_params, state)
 
 
-def _step(params, phase_params, config, carry, current, target, distance, gamma, eps, probes=None):
+def _step(params, phase_params, config, carry, current, target, distance, gamma, eps, probes=None,
+          next_state=None):
     """One generator step: frame dicts (rotations (J,4), root (3,), velocity (3,), contacts (C,)).
+
+    next_state: (S,) ground-truth state of the frame this step makes (posterior training) or None (prior).
 
     probes: None, or this step's zero probes for the generator's kernels (see :func:`zero_probes`);
     then the fourth output holds the inputs of its kernel matmuls (else None).
@@ -91,7 +114,7 @@ def _step(params, phase_params, config, carry, current, target, distance, gamma,
         offset = jnp.concatenate([offset, (distance / data.fps)[None].astype(offset.dtype)])
     phase = _phase(config, phase_params, state)
     generator = networks.make_generator(config)
-    args = (carry, state, target_state, offset, gamma, phase, eps)
+    args = (carry, state, target_state, offset, gamma, phase, eps, next_state)
     if probes is None:
         carry, out = generator.apply(params, *args)
         inputs = None
@@ -127,7 +150,7 @@ def _stack_first(first, rest):
 
 
 def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int, noise=None,
-            probes=None):
+            probes=None, ground_truth=None, noise_scale=1.0):
     """Generate one transition.
 
     Args:
@@ -145,6 +168,10 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
       probes: optional {"forward", "backward"} zero probes with a leading (num_steps,) axis
         (:func:`zero_probes`); then the result is (dict, inputs), inputs = the generators' kernel-matmul
         inputs per step, {"forward", "backward"} trees of (num_steps, in) arrays (:func:`kernel_gradients`).
+      ground_truth: optional {"forward", "backward"} (num_steps, S) ground-truth states of the frames each
+        step makes (:func:`next_frame_states`): z is drawn from the posterior (model.posterior must not be
+        "none"). None: z from the prior; the ground truth is never read.
+      noise_scale: factor on the latent noise (0 = every sample is the prior's / posterior's mean).
     Returns dict (T_out = max_length + 2):
       "rotations" (T_out, J, 4), "root_positions" (T_out, 3), "contacts" (T_out, C),
       "global_positions" (T_out, J, 3): the stitched motion, frame 0 = start and frame L + 1 = target
@@ -177,21 +204,26 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         if eps.shape != (n, 2, m.latent_dim):
             raise ValueError(f"noise has shape {eps.shape}; rollout needs ({n}, 2, {m.latent_dim}) "
                              f"= (num_steps(config, max_length), 2, latent_dim)")
+    eps = eps * jnp.asarray(noise_scale, dtype)
+    if ground_truth is not None and m.posterior == "none":
+        raise ValueError("ground_truth given but model.posterior='none': the model has no posterior")
+    truth = (None if ground_truth is None else
+             (ground_truth["forward"], ground_truth.get("backward", ground_truth["forward"])))
     steps = jnp.arange(n, dtype=jnp.int32)
-    total = (length + 1).astype(dtype)
     carry0 = networks.initial_carry(config, dtype)
 
     def body(carry, xs):
-        i, eps_i, probes_i = xs
+        i, eps_i, probes_i, truth_i = xs
         probe = (lambda name: None) if probes_i is None else probes_i.get
+        truth_fwd, truth_bwd = (None, None) if truth_i is None else truth_i
         fwd_carry, bwd_carry, fwd, bwd = carry
-        gamma = jnp.clip((i + 1).astype(dtype) / total, 0.0, 1.0)
+        gamma = interpolation_weight(config, i + 1, n_fwd, length).astype(dtype)
         if bidir and aligned:
             f_target, f_dist = _reverse(bwd), length + 1 - 2 * i
         else:
             f_target, f_dist = target_frame, length + 1 - i
         new_carry, new_fwd, g_fwd, inputs = _step(gen_params["forward"], phase_params, config, fwd_carry, fwd,
-                                                  f_target, f_dist, gamma, eps_i[0], probe("forward"))
+                                                  f_target, f_dist, gamma, eps_i[0], probe("forward"), truth_fwd)
         valid = i < n_fwd
         fwd_carry, fwd = _hold(valid, (new_carry, new_fwd), (fwd_carry, fwd))
         out = {"forward": {**fwd, **g_fwd}, "inputs": {"forward": inputs}}
@@ -200,8 +232,10 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
                 b_target, b_dist = _reverse(fwd), length - 2 * i
             else:
                 b_target, b_dist = start_frame, length + 1 - i
+            gamma = interpolation_weight(config, i + 1, n_bwd, length).astype(dtype)
             new_carry, new_bwd, g_bwd, inputs = _step(gen_params["backward"], phase_params, config, bwd_carry,
-                                                      bwd, b_target, b_dist, gamma, eps_i[1], probe("backward"))
+                                                      bwd, b_target, b_dist, gamma, eps_i[1], probe("backward"),
+                                                      truth_bwd)
             valid = i < n_bwd
             bwd_carry, bwd = _hold(valid, (new_carry, new_bwd), (bwd_carry, bwd))
             out["backward"] = {**bwd, **g_bwd}
@@ -209,7 +243,7 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         return (fwd_carry, bwd_carry, fwd, bwd), out
 
     init = (carry0, carry0, start_frame, target_frame)
-    _, seq = jax.lax.scan(body, init, (steps, eps, probes))
+    _, seq = jax.lax.scan(body, init, (steps, eps, probes, truth))
 
     # Sequences including their keyframe at entry 0: fwd_all[t] = frame t, bwd_all[r] = frame L + 1 - r.
     frame_keys = ("rotations", "root", "velocity", "contacts")
@@ -297,11 +331,40 @@ def keyframes_from_batch(batch: dict, length):
     return keyframe(0), keyframe(index), batch["offsets"][:, 0]
 
 
-def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, max_length: int | None = None):
+def direction_frames(batch: dict, length, num_steps: int, backward: bool, config) -> dict:
+    """Ground truth of one direction's per-step frames (entry i = forward frame i + 1, or backward frame
+    L - i), in that direction's time: "rotations" (B, n, J, 4), "velocities" (B, n, 3) scaled (reversed
+    time for the backward direction), "contacts" (B, n, C), "global_positions" (B, n, J, 3)."""
+    length = jnp.asarray(length, jnp.int32)
+    i = jnp.arange(num_steps + 1, dtype=jnp.int32)  # entry 0 = the keyframe the direction starts from
+    frames = (length + 1 - i) if backward else i
+
+    def take(x):
+        return jnp.take(x, frames, axis=1, mode="clip")
+
+    root = take(batch["root_positions"])
+    velocity = (root[:, 1:] - root[:, :-1]) / config.data.velocity_scale
+    return {"rotations": take(batch["rotations"])[:, 1:], "velocities": velocity,
+            "contacts": take(batch["contacts"])[:, 1:], "global_positions": take(batch["global_positions"])[:, 1:]}
+
+
+def next_frame_states(batch: dict, length, num_steps: int, config) -> dict:
+    """Posterior inputs {"forward", "backward"}: (B, n, S) ground-truth state of the frame each step makes."""
+    out = {}
+    for name in ("forward", "backward"):
+        d = direction_frames(batch, length, num_steps, name == "backward", config)
+        out[name] = F.state_vector(d["rotations"], d["velocities"], d["contacts"])
+    return out
+
+
+def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, max_length: int | None = None,
+                  posterior: bool = True):
     """:func:`rollout` vmapped over a batch dict (from ``features.prepare_dataset``, leading B).
 
     Keyframes: frame 0 and frame ``length + 1`` of each window; max_length defaults to T - 2.
-    Per-example noise from ``jax.random.split(key, B)``. Returns rollout's dict with a leading B axis.
+    Per-example noise from ``jax.random.split(key, B)``. posterior: draw z from the posterior on the
+    batch's ground truth (when ``model.posterior`` has one); False = from the prior, as at inference.
+    Returns rollout's dict with a leading B axis.
     Differentiable in gen_params, phase_params and the batch; with ``train.weight_gradients_after_scan``
     the generators' kernel gradients are formed after the scan (module docstring), same values.
     """
@@ -313,18 +376,22 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
     keys = jax.random.split(key, batch["rotations"].shape[0])
     generators = {name: gen_params[name] for name in ("forward", "backward")}
     length = jnp.asarray(length, jnp.int32)
+    truth = None
+    if posterior and config.model.posterior != "none":
+        truth = next_frame_states(batch, length, num_steps(config, max_length), config)
     if config.train.weight_gradients_after_scan:
-        return _rollout_batch_probed(generators, phase_params, start, target, offsets, keys, length, config,
-                                     max_length)
-    return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, config, max_length)
+        return _rollout_batch_probed(generators, phase_params, start, target, offsets, keys, length, truth,
+                                     config, max_length)
+    return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, truth, config,
+                            max_length)
 
 
-def _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, config, max_length,
+def _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, truth, config, max_length,
                      probes=None):
-    def one(s, t, o, k, p):
-        return rollout(generators, phase_params, s, t, o, k, config, length, max_length, probes=p)
+    def one(s, t, o, k, g, p):
+        return rollout(generators, phase_params, s, t, o, k, config, length, max_length, probes=p, ground_truth=g)
 
-    return jax.vmap(one)(start, target, offsets, keys, probes)
+    return jax.vmap(one)(start, target, offsets, keys, truth, probes)
 
 
 _KERNEL_NAMES = ("kernel", "input_kernel", "hidden_kernel")  # networks.kernel_matmul parameter names
@@ -359,11 +426,12 @@ def kernel_gradients(generators: dict, inputs: dict, probe_grads: dict, matmul_d
         dk = jnp.einsum("...i,...o->io", x, dy, preferred_element_type=jnp.float32)
         return dk.reshape(kernel.shape).astype(kernel.dtype)
 
-    result = {}
-    for name, recorded in inputs.items():
-        kernels = _kernels(generators[name]["params"], lambda k: k)
-        result[name] = {"params": jax.tree.map(gradient, kernels, recorded, probe_grads[name])}
-    return result
+    def walk(kernels, recorded, dy):  # only the kernels whose matmul ran (recorded an input)
+        return {name: (walk(kernels[name], value, dy[name]) if isinstance(value, Mapping)
+                       else gradient(kernels[name], value, dy[name])) for name, value in recorded.items()}
+
+    return {name: {"params": walk(generators[name]["params"], recorded, probe_grads[name])}
+            for name, recorded in inputs.items()}
 
 
 def _add_kernel_gradients(grads: dict, kernel_grads: dict) -> dict:
@@ -374,29 +442,32 @@ def _add_kernel_gradients(grads: dict, kernel_grads: dict) -> dict:
     return out
 
 
-@functools.partial(jax.custom_vjp, nondiff_argnums=(7, 8))
-def _rollout_batch_probed(generators, phase_params, start, target, offsets, keys, length, config, max_length):
-    return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, config, max_length)
+@functools.partial(jax.custom_vjp, nondiff_argnums=(8, 9))
+def _rollout_batch_probed(generators, phase_params, start, target, offsets, keys, length, truth, config,
+                          max_length):
+    return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, truth, config,
+                            max_length)
 
 
-def _probed_forward(generators, phase_params, start, target, offsets, keys, length, config, max_length):
+def _probed_forward(generators, phase_params, start, target, offsets, keys, length, truth, config, max_length):
     leading = (keys.shape[0], num_steps(config, max_length))
     probes = zero_probes(generators, leading)
 
-    def probed(generators, phase_params, start, target, offsets, probes):
-        return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, config,
+    def probed(generators, phase_params, start, target, offsets, truth, probes):
+        return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, truth, config,
                                 max_length, probes)
 
-    out, vjp_fn, inputs = jax.vjp(probed, generators, phase_params, start, target, offsets, probes, has_aux=True)
+    out, vjp_fn, inputs = jax.vjp(probed, generators, phase_params, start, target, offsets, truth, probes,
+                                  has_aux=True)
     return out, (vjp_fn, generators, inputs)
 
 
 def _probed_backward(config, max_length, residuals, cotangent):
     vjp_fn, generators, inputs = residuals
-    d_generators, d_phase, d_start, d_target, d_offsets, d_probes = vjp_fn(cotangent)
+    d_generators, d_phase, d_start, d_target, d_offsets, d_truth, d_probes = vjp_fn(cotangent)
     kernel_grads = kernel_gradients(generators, inputs, d_probes, config.model.matmul_dtype)
     d_generators = _add_kernel_gradients(d_generators, kernel_grads)
-    return d_generators, d_phase, d_start, d_target, d_offsets, None, None
+    return d_generators, d_phase, d_start, d_target, d_offsets, None, None, d_truth
 
 
 _rollout_batch_probed.defvjp(_probed_forward, _probed_backward)

@@ -265,11 +265,11 @@ def make_update_step(config, mesh: Mesh | None = None,
     (inside `generator_loss`, whose third output, when present, is handed to `discriminator_loss`).
     The state is donated: do not use the old state after the call.
     """
-    if generator_loss is None or discriminator_loss is None:
-        from stitchjax import losses
+    from stitchjax import losses
 
-        generator_loss = generator_loss or losses.generator_loss
-        discriminator_loss = discriminator_loss or losses.discriminator_loss
+    takes_kl_scale = generator_loss is None  # the default loss takes the KL warm-up factor
+    generator_loss = generator_loss or losses.generator_loss
+    discriminator_loss = discriminator_loss or losses.discriminator_loss
     mesh = make_mesh() if mesh is None else mesh
     optimizer = make_optimizer(config.train)
 
@@ -278,9 +278,13 @@ def make_update_step(config, mesh: Mesh | None = None,
         _, gen_key, disc_key = jax.random.split(key, 3)
         generators, discriminators = split_params(state.params)
 
+        extra = {}
+        if takes_kl_scale:
+            extra["kl_scale"] = losses.kl_warmup(state.step, config.loss.kl_warmup_steps)
+
         def gen_objective(gen_params):
             out = generator_loss({**gen_params, **discriminators}, state.phase_params, batch, gen_key,
-                                 config, length)
+                                 config, length, **extra)
             loss, terms = out[0], out[1]
             aux = out[2] if len(out) > 2 else None
             return loss, (terms, aux)
@@ -536,7 +540,19 @@ def pretrain_phase_params(config, dataset: dict, key: jax.Array):
         raise TrainingError("features.dataset_states is missing: cannot pretrain the phase network")
     states = np.asarray(states).reshape(-1, np.shape(states)[-1])
     labels = np.asarray(dataset["phase"]).reshape(states.shape[0], -1)
+    if config.phase.include_reversed:  # the backward generator's states: time-reversed windows
+        reversed_windows = reverse_time(dataset)
+        rev_states = np.asarray(features.dataset_states(reversed_windows, config))
+        rev_labels = phase.phase_labels(reversed_windows["contacts"], config.data.fps, config)
+        states = np.concatenate([states, rev_states.reshape(-1, states.shape[-1])])
+        labels = np.concatenate([labels, np.asarray(rev_labels, np.float32).reshape(rev_states.shape[0] *
+                                                                                    rev_states.shape[1], -1)])
     return phase.pretrain_phase(key, states, labels, config)
+
+
+def reverse_time(dataset: dict) -> dict:
+    """The windows played backwards: "rotations", "root_positions", "contacts" with the time axis reversed."""
+    return {name: np.asarray(dataset[name])[:, ::-1] for name in ("rotations", "root_positions", "contacts")}
 
 
 # ------------------------------------------------------------------------------------------------ loop

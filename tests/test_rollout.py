@@ -42,7 +42,8 @@ def setup():
     config = tiny_config()
     params = N.init_params(config, jax.random.PRNGKey(0))
     phase_params = phase_params_for(config)
-    fn = jax.jit(lambda p, pp, b, k, length: RO.rollout_batch(p, pp, b, k, config, length))
+    # z from the prior, as at inference (the posterior path is tested in test_posterior.py)
+    fn = jax.jit(lambda p, pp, b, k, length: RO.rollout_batch(p, pp, b, k, config, length, posterior=False))
     return config, params, phase_params, synthetic_batch(), fn
 
 
