@@ -23,6 +23,7 @@ import io
 import os
 import pathlib
 import re
+import zlib
 
 import numpy as np
 
@@ -123,8 +124,8 @@ def _read_text(path: pathlib.Path) -> str:
     if data[:2] == b"\x1f\x8b":
         try:
             data = gzip.decompress(data)
-        except (OSError, EOFError) as e:
-            raise BVHError(f"{path}: corrupt gzip data ({e})") from None
+        except (OSError, EOFError, zlib.error) as e:
+            raise BVHError(f"{path}: corrupt gzip data ({e}); re-download or re-compress the file") from None
     if data[:3] == b"\xef\xbb\xbf":  # UTF-8 byte order mark
         data = data[3:]
     text = data.decode("latin-1")

@@ -19,7 +19,8 @@ import dataclasses
 import json
 import os
 import pathlib
-from typing import Any
+import sys
+from typing import Any, Callable
 
 import jax
 import numpy as np
@@ -117,6 +118,47 @@ def restore(manager: ocp.CheckpointManager, abstract_state: Any, step: int | Non
         ),
     )
     return restored["state"], restored["config"], restored["extras"] or {}
+
+
+def _short(error: BaseException) -> str:
+    """The first line of an orbax / TensorStore error, cut to a readable length."""
+    text = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+    text = text.split(" See full TensorStore details")[0].rstrip(" .")
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
+def _report_to_stderr(message: str) -> None:
+    print(message, file=sys.stderr)
+
+
+def restore_newest_good(manager: ocp.CheckpointManager, abstract_state: Any,
+                        report: Callable[[str], None] | None = _report_to_stderr,
+                        steps: list[int] | None = None):
+    """Restore the newest checkpoint that restores, falling back over broken ones (newest first).
+
+    Each step folder that fails (a truncated or missing file, ...) is named through `report` with the
+    first line of its error, and the next older one is tried. steps: candidates (default: all saved).
+    Returns (state, config_json, extras, step). Raises CheckpointError naming every folder tried when
+    none restores (or there is none).
+    """
+    directory = pathlib.Path(str(manager.directory))
+    steps = sorted(manager.all_steps() if steps is None else steps, reverse=True)
+    if not steps:
+        raise CheckpointError(f"no checkpoint found in {directory}")
+    failures = []
+    for i, step in enumerate(steps):
+        try:
+            state, config_json, extras = restore(manager, abstract_state, step)
+        except Exception as error:  # orbax / TensorStore raise many types for a broken folder
+            failures.append(f"{directory / str(step)}: {_short(error)}")
+            if report is not None:
+                older = steps[i + 1] if i + 1 < len(steps) else None
+                report(f"warning: checkpoint {directory / str(step)} cannot be restored ({_short(error)}); "
+                       + (f"falling back to step {older}" if older is not None else "no older checkpoint left"))
+            continue
+        return state, config_json, extras, int(step)
+    raise CheckpointError(f"no checkpoint in {directory} can be restored: " + "; ".join(failures)
+                          + ". Delete the broken step folders, or train again in a new --workdir")
 
 
 def saved_steps(workdir: str | os.PathLike) -> list[int]:

@@ -44,6 +44,16 @@ class DataConfig:
     parents: tuple = (-1, 0, 1, 2, 3, 0, 5, 6, 7, 0, 9, 10, 11, 12, 11, 14, 15, 16, 11, 18, 19, 20)
     # reason: FK inside the losses needs static parents; LAFAN1's 22 joints (h36m configs set theirs)
     num_contacts: int = 4  # reason: contact channels in the state (LAFAN1 feet: LeftFoot/Toe, RightFoot/Toe)
+    feet: tuple = ()  # reason: dataset "bvh_folder": contact joints by name (left foot, left toe, right foot,
+    # right toe); () = inferred from common names (LeftFoot, LeftToeBase, ...), an error when not found
+    up_axis: str = ""  # reason: dataset "bvh_folder": the files' up axis ("+y", "+z", ...); "" = inferred
+    forward_axis: str = ""  # reason: dataset "bvh_folder": the root's local forward axis; "" = inferred
+    # from the left / right upper legs and the up direction
+    train_files: tuple = ()  # reason: dataset "bvh_folder": glob patterns of training files under --data;
+    # () = the files of train_subjects (folders or *_<subject> stems), else every file not in test_files
+    test_files: tuple = ()  # reason: dataset "bvh_folder": glob patterns of test files (kept out of training)
+    unit_scale: float = 0.0  # reason: dataset "bvh_folder": centimetres per file unit; 0 = inferred from
+    # the skeleton's height (cm or m), else set it (CMU: 5.6444)
 
     @property
     def num_joints(self) -> int:

@@ -40,12 +40,14 @@ BENCHMARK_LENGTHS = (5, 15, 30, 45)
 PROTOCOL_LENGTHS = (10, 15, 30, 45, 50)
 CONTEXT_FRAMES = 10  # official benchmark: 10 context frames, the last one (frame 9) is the start keyframe
 START_FRAME = CONTEXT_FRAMES - 1
-METRIC_KEYS = ("apd", "ade", "ade_best", "slde", "npss", "foot_slide", "l2p", "l2q")
+METRIC_KEYS = ("apd", "spread", "spread_mid", "ade", "ade_best", "slde", "npss", "foot_slide", "l2p", "l2q")
 
 
 def _units(metres_per_unit: float) -> dict:
     return {
         "apd": "m",
+        "spread": "cm (mean pairwise per-joint distance between samples, per frame)",
+        "spread_mid": "cm (the same at the middle generated frame)",
         "ade": "m",
         "ade_best": "m",
         "slde": "m",
@@ -195,7 +197,8 @@ class _Accumulator:
 
     def __init__(self):
         self.sums = dict.fromkeys(
-            ("ade", "ade_best", "slde", "apd", "npss", "l2p", "l2q", "slide", "slide_count"), 0.0
+            ("ade", "ade_best", "slde", "apd", "spread", "spread_mid", "npss", "l2p", "l2q", "slide",
+             "slide_count"), 0.0
         )
         self.count = 0  # sample-windows
         self.windows = 0
@@ -205,6 +208,8 @@ class _Accumulator:
         samples = n / w
         return {
             "apd": s["apd"] / w * metres_per_unit,
+            "spread": s["spread"] / w * metres_per_unit * 100.0,
+            "spread_mid": s["spread_mid"] / w * metres_per_unit * 100.0,
             "ade": s["ade"] / n * metres_per_unit,
             "ade_best": s["ade_best"] / w * metres_per_unit,
             "slde": s["slde"] / n * metres_per_unit,
@@ -228,6 +233,7 @@ def evaluate_protocol(
     batch_size: int = 256,
     seed: int = 0,
     progress: bool = True,
+    settings: Mapping[str, str] | None = None,
 ) -> dict:
     """The paper's evaluation protocol (DESIGN.md §6) for several methods through one code path.
 
@@ -240,7 +246,10 @@ def evaluate_protocol(
     height above the window's ground (lowest ground-truth foot height in the whole window).
     With S samples per window, ADE, SLDE, NPSS, L2P and L2Q are averaged over samples, ADE best
     keeps the best sample of each window, APD averages the sample pairs of each window and foot
-    slide pools all samples. A method returning one sample is deterministic (APD 0).
+    slide pools all samples. A method returning one sample is deterministic (APD 0). "spread" is the
+    per-frame, per-joint pairwise distance in cm and "spread_mid" the same at the middle generated frame.
+    settings: optional method name -> a short description (e.g. "search 16, noise x1"), kept in the
+    results and printed beside the method.
     Returns {"n_windows", "samples", "lengths": {"L": {name: {metric: value}, "ground_truth":
     {"foot_slide": value}}}, "units": {...}}; see ``_units`` for the units of each metric.
     """
@@ -299,6 +308,8 @@ def evaluate_protocol(
                 acc.sums["ade_best"] += float(displacement.min(axis=0).sum())
                 acc.sums["slde"] += float(metrics.displacement_per_window(p[:, :, -1:], gt_p[:, -1:]).sum())
                 acc.sums["apd"] += float(metrics.apd_per_window(p).sum())
+                acc.sums["spread"] += float(metrics.joint_spread_per_window(p).sum())
+                acc.sums["spread_mid"] += float(metrics.joint_spread_per_window(p, frame=length // 2).sum())
                 acc.sums["npss"] += float(metrics.npss_parts(q, gt_q)[0].sum())
                 acc.sums["l2p"] += float(metrics.l2p_per_window(p, gt_p, mean, std).sum())
                 acc.sums["l2q"] += float(metrics.l2q_per_window(q, gt_q).sum())
@@ -321,15 +332,19 @@ def evaluate_protocol(
         "samples": int(samples),
         "lengths": results,
         "units": _units(metres_per_unit),
+        "settings": {name: str((settings or {}).get(name, "")) for name in methods},
     }
 
 
 def format_protocol_table(results: Mapping) -> str:
     """One row per (length, method), one column per metric, units in the header."""
     units = results.get("units", {})
-    short = {"m": "m", "cm/frame": "cm/f"}
-    cols = [(k, f"{k} ({short.get(units.get(k, ''), '-')})") for k in METRIC_KEYS]
-    header = f"{'L':>3} {'method':<12}" + "".join(f" {title:>15}" for _, title in cols)
+    short = {"m": "m", "cm/frame": "cm/f", "cm": "cm"}
+    cols = [(k, f"{k} ({short.get(units.get(k, '').split(' ')[0], '-')})") for k in METRIC_KEYS if k in _first_row(results)]
+    settings = results.get("settings", {})
+    width = max([12] + [len(n) for n in settings])
+    setting_width = max([7] + [len(v) for v in settings.values()])
+    header = f"{'L':>3} {'method':<{width}} {'setting':<{setting_width}}" + "".join(f" {title:>15}" for _, title in cols)
     lines = [
         f"Protocol on {results['n_windows']} windows, {results['samples']} samples per window",
         header,
@@ -340,12 +355,21 @@ def format_protocol_table(results: Mapping) -> str:
             if name == "ground_truth":
                 continue
             lines.append(
-                f"{length:>3} {name:<12}" + "".join(f" {values[k]:>15.4f}" for k, _ in cols)
+                f"{length:>3} {name:<{width}} {settings.get(name, ''):<{setting_width}}"
+                + "".join(f" {values.get(k, float('nan')):>15.4f}" for k, _ in cols)
             )
         gt = entry.get("ground_truth", {})
         if "foot_slide" in gt:
             cells = "".join(
                 f" {gt['foot_slide']:>15.4f}" if k == "foot_slide" else f" {'':>15}" for k, _ in cols
             )
-            lines.append(f"{length:>3} {'ground_truth':<12}" + cells)
+            lines.append(f"{length:>3} {'ground_truth':<{width}} {'':<{setting_width}}" + cells)
     return "\n".join(lines)
+
+
+def _first_row(results: Mapping) -> dict:
+    for entry in results["lengths"].values():
+        for name, values in entry.items():
+            if name != "ground_truth":
+                return values
+    return {}

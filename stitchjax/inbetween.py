@@ -51,6 +51,7 @@ __all__ = [
     "InbetweenError", "Model", "load_model", "random_model", "with_matmul_dtype", "inbetween", "inbetween_clip",
     "sample_transitions", "transitions_in_frame", "keyframe_contacts", "model_method",
     "evaluation_method", "stitch_losses", "noise_shape", "window_keyframes", "rollout_details",
+    "inbetween_takes", "conform_take", "check_length",
 ]
 
 CONTACT_HEIGHT = 4.0  # file units (cm): single-frame contact guess, see keyframe_contacts
@@ -143,6 +144,21 @@ def _resolve_checkpoint(path) -> tuple[pathlib.Path, int | None]:
                             f"the folder given to bin/train --workdir")
 
 
+def _readable_config(workdir, step):
+    """The saved config JSON of checkpoint ``step``, or (step None) of the newest one whose config reads."""
+    from stitchjax import checkpoints
+
+    if step is not None:
+        return checkpoints.read_config_json(workdir, step)
+    steps = checkpoints.saved_steps(workdir)
+    for candidate in reversed(steps[1:]):
+        try:
+            return checkpoints.read_config_json(workdir, candidate)
+        except (OSError, ValueError):
+            continue
+    return checkpoints.read_config_json(workdir, steps[0] if steps else None)
+
+
 def load_model(checkpoint, step: int | None = None) -> Model:
     """Load a model from a training run folder (its latest checkpoint, or ``step``).
 
@@ -160,12 +176,20 @@ def load_model(checkpoint, step: int | None = None) -> Model:
     level = absl_logger.level
     absl_logger.setLevel(logging.ERROR)  # orbax warns that a read-only directory is read only
     try:
-        config = config_lib.from_dict(checkpoints.read_config_json(workdir, step))
+        config = config_lib.from_dict(_readable_config(workdir, step))
         manager = checkpoints.open_manager(workdir, read_only=True)
         try:
-            if step is None:
-                step = manager.latest_step()
-            state, _, extras = checkpoints.restore(manager, train.abstract_train_state(config), step)
+            abstract = train.abstract_train_state(config)
+            if step is None:  # the newest checkpoint that restores, naming any broken one on stderr
+                state, _, extras, step = checkpoints.restore_newest_good(manager, abstract)
+            else:
+                try:
+                    state, _, extras = checkpoints.restore(manager, abstract, step)
+                except Exception as error:  # orbax / TensorStore: many types for a broken folder
+                    raise checkpoints.CheckpointError(
+                        f"checkpoint {checkpoints.checkpoint_dir(workdir) / str(step)} cannot be restored "
+                        f"({checkpoints._short(error)}); pass the run folder to use the newest one that "
+                        f"restores (steps saved: {checkpoints.saved_steps(workdir)})") from None
         finally:
             manager.close()
     finally:
@@ -221,8 +245,10 @@ def stitch_losses(result: dict) -> jax.Array:
 
 
 @functools.lru_cache(maxsize=32)
-def _compiled_sampler(config, length: int, num_candidates: int):
+def _compiled_sampler(config, length: int, num_candidates: int, noise_scale: float = 1.0):
     """jit of (params, phase_params, start, target, offsets, key) -> model-frame transitions.
+
+    z is drawn from the prior p (the ground truth is never an input); noise_scale multiplies its noise.
 
     start / target: dicts of (B, ...) keyframes as ``rollout.rollout`` wants them; offsets (B, J, 3).
     Every window gets ``num_candidates`` rollouts (keys: split(key, B), then split(window key,
@@ -233,7 +259,8 @@ def _compiled_sampler(config, length: int, num_candidates: int):
     from stitchjax import rollout as rollout_lib
 
     def one(params, phase_params, start, target, offsets, key):
-        out = rollout_lib.rollout(params, phase_params, start, target, offsets, key, config, length, length)
+        out = rollout_lib.rollout(params, phase_params, start, target, offsets, key, config, length, length,
+                                  noise_scale=noise_scale)
         return {"rotations": out["rotations"], "root_positions": out["root_positions"],
                 "contacts": out["contacts"], "global_positions": out["global_positions"],
                 "stitch_loss": stitch_losses(out)}
@@ -271,7 +298,7 @@ def _check_request(model: Model, length: int, num_samples: int, search: int, war
 
 
 def sample_transitions(model: Model, start: dict, target: dict, offsets, length: int, num_samples: int,
-                       seed=0, search: int = 0) -> dict:
+                       seed=0, search: int = 0, noise_scale: float = 1.0) -> dict:
     """Transitions in the model's frame for B keyframe pairs (no alignment, no keyframe overwrite).
 
     start, target: {"rotations" (B, J, 4), "root_position" (B, 3), "contacts" (B, C)}, already centred
@@ -280,10 +307,13 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
       (B, S, L+2, C), "global_positions" (B, S, L+2, J, 3), "stitch_loss" (B, S)}, S = num_samples.
     With ``search=M`` the M x S candidates of a window are drawn with the same keys as plain sampling
     of M x S samples, and the S with the lowest stitching loss are returned in increasing order.
+    noise_scale: factor on the latent noise (0: every sample is the same, the prior's mean path).
     """
     _check_request(model, length, num_samples, search, warn=True)
+    if not np.isfinite(noise_scale) or noise_scale < 0:
+        raise InbetweenError(f"noise_scale must be a finite number >= 0, got {noise_scale}")
     candidates = num_samples * max(int(search), 1)
-    fn = _compiled_sampler(model.config, int(length), int(candidates))
+    fn = _compiled_sampler(model.config, int(length), int(candidates), float(noise_scale))
     as32 = functools.partial(jnp.asarray, dtype=jnp.float32)
     out = fn(model.params, model.phase_params, jax.tree.map(as32, start), jax.tree.map(as32, target),
              as32(offsets), _as_key(seed))
@@ -340,7 +370,7 @@ def _check_skeleton(model: Model, skeleton):
 
 def transitions_in_frame(model: Model, start_rotations, start_positions, start_contacts, target_rotations,
                          target_positions, target_contacts, length: int, num_samples: int, seed=0,
-                         search: int = 0):
+                         search: int = 0, noise_scale: float = 1.0):
     """Transitions between B keyframe pairs given in any world frame, returned in that frame.
 
     Keyframes: local rotations (B, J, 4), local positions (B, J, 3) (root = world position, others
@@ -360,7 +390,7 @@ def transitions_in_frame(model: Model, start_rotations, start_positions, start_c
              "contacts": np.asarray(start_contacts, np.float64)}
     target = {"rotations": aligned_rot[:, 1], "root_position": aligned_pos[:, 1, 0],
               "contacts": np.asarray(target_contacts, np.float64)}
-    out = sample_transitions(model, start, target, sp, length, num_samples, seed, search)
+    out = sample_transitions(model, start, target, sp, length, num_samples, seed, search, noise_scale)
 
     rotations = out["rotations"].astype(np.float64)  # (B, S, T, J, 4)
     roots = out["root_positions"].astype(np.float64)  # (B, S, T, 3)
@@ -391,7 +421,7 @@ def _keyframe(motion: Motion, which: str):
 
 
 def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samples: int = 1, seed=0,
-              search: int = 0, start_contacts=None, target_contacts=None) -> list:
+              search: int = 0, start_contacts=None, target_contacts=None, allow_extrapolation: bool = False) -> list:
     """Generate ``num_samples`` transitions of ``length`` frames from ``start`` to ``target``.
 
     start: Motion whose LAST frame is the start keyframe (earlier frames, if any, are context: the one
@@ -400,6 +430,9 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     length: generated frames L >= 1. seed: int or jax PRNG key. search: 0 = plain sampling; M >= 1 =
       try M latent pairs per wanted sample and keep the num_samples with the lowest stitching loss.
     start_contacts / target_contacts: (C,) foot contacts to use instead of measuring them.
+    allow_extrapolation: a length beyond ``model.trained_max_length`` is an InbetweenError unless True.
+    The keyframes must be on the model's skeleton, frame rate and units (see :func:`inbetween_takes`,
+    which brings takes from anywhere onto them).
     Returns a list of ``num_samples`` Motions of L + 2 frames (start keyframe, L generated frames,
     target keyframe; same skeleton, fps and channel layout as ``start``), in sampling order, or in
     increasing stitching loss with ``search``. Each carries no extra attributes; use
@@ -410,6 +443,7 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     _check_skeleton(model, start.skeleton)
     _check_skeleton(model, target.skeleton)
     _check_request(model, length, num_samples, search)
+    check_length(model, length, allow_extrapolation)
     parents = model.parents
     start_global = forward_kinematics(start.rotations[-2:], start.positions[-2:], parents)[1]
     target_global = forward_kinematics(target.rotations[:2], target.positions[:2], parents)[1]
@@ -426,8 +460,133 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     return [start.with_frames(rotations[0, s], positions[0, s]) for s in range(num_samples)]
 
 
+def check_length(model: Model, length: int, allow_extrapolation: bool = False) -> None:
+    """Refuse a transition longer than the model was trained on (``Model.trained_max_length``), naming both
+    lengths, unless ``allow_extrapolation`` (then ``sample_transitions`` still warns)."""
+    if not allow_extrapolation and int(length) > model.trained_max_length:
+        raise InbetweenError(
+            f"transition length {int(length)} is longer than the {model.trained_max_length} frames the model was "
+            f"trained on (train.max_length): past that the motion is extrapolated and drifts; ask for at most "
+            f"{model.trained_max_length} frames (keyframes closer together, or --length), or allow it with "
+            f"allow_extrapolation=True (bin/inbetween --allow-extrapolation)")
+
+
+def conform_take(model: Model, motion: Motion, what: str = "the take", scale: float = 1.0) -> Motion:
+    """A take on the model's terms: joints mapped by name onto the model's skeleton (extra joints folded
+    away, missing ones refused), positions times ``scale``, and its bone lengths checked against the model's
+    training skeleton (``stats["offsets"]``) — another scale is refused with the measured ratio and the
+    fix. The frame rate is left alone (see :func:`stitchjax.conform.resample`, anchored at a keyframe)."""
+    from stitchjax import conform
+
+    if not isinstance(motion, Motion):
+        raise InbetweenError(f"{what} must be a stitchjax.bvh.Motion, got {type(motion).__name__}")
+    try:
+        if scale != 1.0:
+            motion = conform.rescale(motion, scale)
+        if model.joint_names is not None and (tuple(motion.skeleton.names) != tuple(model.joint_names)
+                                              or tuple(motion.skeleton.parents) != model.parents):
+            motion = conform.map_joints(motion, model.joint_names, model.parents, what)
+        reference = model.stats.get("offsets") if model.stats else None
+        if reference is not None and np.shape(reference) == (model.num_joints, 3):
+            conform.check_scale(motion.skeleton.offsets, reference, what, "the model's training skeleton",
+                                "bin/inbetween --scale {factor} (Python: scale={factor})")
+    except conform.ConformError as error:
+        raise InbetweenError(str(error)) from None
+    _check_skeleton(model, motion.skeleton)
+    return motion
+
+
+def _neighbour_contacts(model: Model, motion: Motion, frame: int, prefer: int):
+    """Contacts of keyframe ``frame`` measured against frame ``frame + prefer`` (or the other side)."""
+    total = motion.num_frames
+    other = frame + prefer if 0 <= frame + prefer < total else (frame - prefer if 0 <= frame - prefer < total else None)
+    frames = [frame] if other is None else [frame, other]
+    _, gpos = forward_kinematics(motion.rotations[frames], motion.positions[frames], motion.skeleton.parents)
+    return keyframe_contacts(gpos[0], model.feet, None if other is None else gpos[1])
+
+
+def _check_frame(motion: Motion, frame, name: str):
+    total = motion.num_frames
+    if int(frame) != frame or not 0 <= frame < total:
+        raise InbetweenError(f"{name} {frame} is out of range: the motion has {total} frames (0..{total - 1})")
+
+
+OUTPUTS = ("transition", "appended", "clip")
+
+
+def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_take: Motion, target_frame: int,
+                    length: int | None = None, num_samples: int = 1, seed=0, search: int = 0, *,
+                    offset=(0.0, 0.0, 0.0), turn_degrees: float = 0.0, output: str = "appended",
+                    scale: float = 1.0, allow_extrapolation: bool = False) -> list:
+    """Transitions from frame ``start_frame`` of one take to frame ``target_frame`` of another (or the same).
+
+    Both takes are brought onto the model's terms first (:func:`conform_take`: joints by name, units checked;
+    ``scale`` multiplies their positions) and resampled to the model's frame rate, anchored at the keyframe
+    so the keyframes are kept exactly. The target take is then placed: turned by ``turn_degrees`` about the
+    vertical axis through its keyframe's root and moved by ``offset`` (x, y, z; file units, i.e. the takes'
+    units before ``scale``).
+    length: generated frames (default: the keyframes' distance in time minus one frame, when both come
+      from one take; required otherwise).
+    output: "transition" = the start keyframe, L generated frames, the placed target keyframe (L + 2 frames);
+      "appended" = the start take's frames 0..start_frame, the L generated frames and the target keyframe;
+      "clip" = "appended" followed by the rest of the (placed) target take.
+    Returns ``num_samples`` Motions at the model's frame rate on the model's skeleton (the takes' own
+    skeleton and channel layout when their joints already match), positions in the takes' units.
+    """
+    from stitchjax import conform
+
+    if output not in OUTPUTS:
+        raise InbetweenError(f"output {output!r}: use one of {', '.join(OUTPUTS)}")
+    if not np.isfinite(scale) or scale <= 0:
+        raise InbetweenError(f"scale must be a positive number, got {scale}")
+    for what, take in (("start take", start_take), ("target take", target_take)):
+        if not isinstance(take, Motion):
+            raise InbetweenError(f"{what} must be a stitchjax.bvh.Motion, got {type(take).__name__}")
+    _check_frame(start_take, start_frame, "start frame")
+    _check_frame(target_take, target_frame, "target frame")
+    same = target_take is start_take
+    if length is None:
+        if not same:
+            raise InbetweenError("give the transition length (frames to generate) when the target keyframe "
+                                 "comes from another take")
+        if target_frame <= start_frame:
+            raise InbetweenError(f"end frame {target_frame} must come after start frame {start_frame}")
+        gap = (target_frame - start_frame) * float(model.config.data.fps) / float(start_take.fps)
+        length = int(round(gap)) - 1
+        if length < 1:
+            raise InbetweenError(f"frames {start_frame} and {target_frame} are adjacent: nothing to generate; "
+                                 f"give a length >= 1 or keyframes further apart")
+    _check_request(model, length, num_samples, search)
+    check_length(model, length, allow_extrapolation)
+    fps = float(model.config.data.fps)
+    start_take = conform_take(model, start_take, "the start take", scale)
+    target_take = start_take if same else conform_take(model, target_take, "the target take", scale)
+    try:
+        start_take, a = conform.resample(start_take, fps, int(start_frame))
+        target_take, b = conform.resample(target_take, fps, int(target_frame))
+        if np.any(np.asarray(offset, np.float64) != 0) or turn_degrees:
+            target_take = conform.place(target_take, np.asarray(offset, np.float64) * scale, turn_degrees, pivot=b)
+    except conform.ConformError as error:
+        raise InbetweenError(str(error)) from None
+    start_contacts = _neighbour_contacts(model, start_take, a, -1)
+    target_contacts = _neighbour_contacts(model, target_take, b, +1)
+    samples = inbetween(model, start_take[a], target_take[b], length, num_samples, seed, search,
+                        start_contacts, target_contacts, allow_extrapolation=True)
+    out = []
+    for s in samples:
+        if output == "transition":
+            motion = s
+        else:
+            tail = slice(b, b + 1) if output == "appended" else slice(b, None)
+            motion = start_take.with_frames(
+                np.concatenate([start_take.rotations[:a], s.rotations[:-1], target_take.rotations[tail]]),
+                np.concatenate([start_take.positions[:a], s.positions[:-1], target_take.positions[tail]]))
+        out.append(conform.rescale(motion, 1.0 / scale) if scale != 1.0 else motion)
+    return out
+
+
 def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: int, length: int | None = None,
-                   num_samples: int = 1, seed=0, search: int = 0) -> list:
+                   num_samples: int = 1, seed=0, search: int = 0, allow_extrapolation: bool = False) -> list:
     """Replace the frames between two keyframes of a take by generated transitions.
 
     Keyframes: ``motion`` frames ``start_frame`` (A) and ``end_frame`` (B), A < B. length: generated
@@ -435,50 +594,32 @@ def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: in
     ``motion``, L generated frames, frames B..end of ``motion`` (T - (B - A - 1) + L frames).
     Contacts of the keyframes: measured against frame A - 1 and B + 1 (the frames being replaced are
     never looked at), or the other side at the ends of the take.
+    A take at another frame rate is resampled to the model's (the keyframes kept exactly; the result is at
+    the model's rate and the default length counts the model's frames between the keyframes); joints are
+    mapped by name and the units checked as in :func:`inbetween_takes`. A length beyond the model's
+    training lengths is refused unless ``allow_extrapolation``.
     """
     if not isinstance(motion, Motion):
         raise InbetweenError(f"expected a stitchjax.bvh.Motion, got {type(motion).__name__}")
-    total = motion.num_frames
-    for name, frame in (("start frame", start_frame), ("end frame", end_frame)):
-        if int(frame) != frame or not 0 <= frame < total:
-            raise InbetweenError(f"{name} {frame} is out of range: the motion has {total} frames (0..{total - 1})")
+    _check_frame(motion, start_frame, "start frame")
+    _check_frame(motion, end_frame, "end frame")
     if end_frame <= start_frame:
         raise InbetweenError(f"end frame {end_frame} must come after start frame {start_frame}")
-    if length is None:
-        length = end_frame - start_frame - 1
-        if length < 1:
-            raise InbetweenError(f"frames {start_frame} and {end_frame} are adjacent: nothing to generate; "
-                                 f"give a length >= 1 or keyframes further apart")
-    _check_skeleton(model, motion.skeleton)
-    _check_request(model, length, num_samples, search)
-    before = start_frame - 1 if start_frame > 0 else (start_frame + 1 if start_frame + 1 < total else None)
-    after = end_frame + 1 if end_frame + 1 < total else (end_frame - 1 if end_frame > 0 else None)
-    frames = sorted({f for f in (before, start_frame, end_frame, after) if f is not None})
-    _, global_positions = forward_kinematics(motion.rotations[frames], motion.positions[frames],
-                                             motion.skeleton.parents)
-    gpos = dict(zip(frames, global_positions))
-    start_contacts = keyframe_contacts(gpos[start_frame], model.feet, None if before is None else gpos[before])
-    target_contacts = keyframe_contacts(gpos[end_frame], model.feet, None if after is None else gpos[after])
-    samples = inbetween(model, motion[start_frame], motion[end_frame], length, num_samples, seed, search,
-                        start_contacts, target_contacts)
-    out = []
-    for s in samples:
-        rotations = np.concatenate([motion.rotations[:start_frame], s.rotations, motion.rotations[end_frame + 1:]])
-        positions = np.concatenate([motion.positions[:start_frame], s.positions, motion.positions[end_frame + 1:]])
-        out.append(motion.with_frames(rotations, positions))
-    return out
+    return inbetween_takes(model, motion, start_frame, motion, end_frame, length, num_samples, seed, search,
+                           output="clip", allow_extrapolation=allow_extrapolation)
 
 
 # ------------------------------------------------------------------------------------------ evaluation
 
 
-def model_method(model, search: int = 0):
+def model_method(model, search: int = 0, noise_scale: float = 1.0):
     """The model as a ``stitchjax.evaluate`` method:
     ``method(windows, start, length, num_samples, seed) -> (rotations (S, B, L, J, 4), positions (S, B, L, J, 3))``.
 
     model: a :class:`Model` or a checkpoint path (loaded once). The method uses frames ``start`` and
     ``start + length + 1`` of each window and their foot-contact labels from ``windows.contacts``
     (the keyframes' character state, as in training); it returns the L generated frames only.
+    search: latent pairs per sample (0: none); noise_scale: factor on the latent noise.
     """
     if not isinstance(model, Model):
         model = load_model(model)
@@ -493,7 +634,7 @@ def model_method(model, search: int = 0):
         contacts = np.asarray(windows.contacts)
         rotations, positions, _ = transitions_in_frame(
             model, rot[:, start], pos[:, start], contacts[:, start], rot[:, target], pos[:, target],
-            contacts[:, target], length, num_samples, seed, search)
+            contacts[:, target], length, num_samples, seed, search, noise_scale)
         # (B, S, L+2, ...) -> generated frames, samples first: (S, B, L, ...)
         return (np.swapaxes(rotations[:, :, 1:-1], 0, 1), np.swapaxes(positions[:, :, 1:-1], 0, 1))
 
@@ -501,9 +642,11 @@ def model_method(model, search: int = 0):
     return method
 
 
-def evaluation_method(checkpoint, search: int = 0):
-    """What ``bin/evaluate model --checkpoint DIR`` calls: :func:`model_method` of the checkpoint."""
-    return model_method(load_model(checkpoint), search=search)
+def evaluation_method(checkpoint, search: int = 0, noise_scale: float = 1.0):
+    """What ``bin/evaluate model --checkpoint DIR`` calls: :func:`model_method` of the checkpoint
+    (``checkpoint`` may also be a loaded :class:`Model`)."""
+    model = checkpoint if isinstance(checkpoint, Model) else load_model(checkpoint)
+    return model_method(model, search=search, noise_scale=noise_scale)
 
 
 # ----------------------------------------------------------------------------- latent-space exploration

@@ -172,6 +172,27 @@ def apd_per_window(samples) -> np.ndarray:
     return total / (num_samples * (num_samples - 1) / 2)
 
 
+def joint_spread_per_window(samples, frame: int | None = None) -> np.ndarray:
+    """Mean pairwise per-joint distance between samples, per window, in data units.
+
+    samples: (S, B, T, J, 3) global positions. For each window, the mean over the S(S-1)/2 pairs of
+    samples, the frames (or the one ``frame`` given) and the joints of the Euclidean distance between the
+    two samples' positions of that joint. Unlike APD it does not grow with the number of frames or joints.
+    Returns (B,); zeros when S == 1.
+    """
+    x = _f64(samples)
+    if frame is not None:
+        x = x[:, :, frame:frame + 1]
+    num_samples, num_windows = x.shape[0], x.shape[1]
+    if num_samples < 2:
+        return np.zeros(num_windows)
+    total = np.zeros(num_windows)
+    for i in range(num_samples - 1):
+        distance = np.sqrt(np.sum((x[i + 1:] - x[i]) ** 2, axis=-1))  # (S-i-1, B, T, J)
+        total += distance.mean(axis=(-2, -1)).sum(axis=0)
+    return total / (num_samples * (num_samples - 1) / 2)
+
+
 def apd(samples, metres_per_unit: float = LAFAN1_METRES_PER_UNIT) -> float:
     """Average pairwise distance in metres (diversity), averaged over windows.
 

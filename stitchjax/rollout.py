@@ -27,29 +27,22 @@ frame it makes, next to the frame it targets) or n / (L + 1) ("transition").
 Latent source: with ``ground_truth`` (training, ``model.posterior="next_frame"``) every step draws z from the
 posterior q(z | h, ground-truth state of the frame it makes); without it z comes from the prior p (inference).
 
-Gradients (``train.weight_gradients_after_scan``, on by default): differentiating a ``lax.scan`` makes
-every backward step form and accumulate its own weight gradient x^T dy from one step's few rows (B = 32),
-a matmul CPUs and GPUs run far below their peak. :func:`rollout_batch` instead holds the generators'
-kernels constant inside the scan, adds a zero probe to every product and records the product's input
-(``networks.kernel_matmul``); the probes' gradients are the products' output gradients, and after the
-scan each kernel's gradient is ONE matmul over all B x steps rows. Same numbers, less time.
+Gradients: with ``train.weight_gradients_after_scan`` (default) the generators' kernel gradients are formed
+after the scan, one matmul per kernel (``stitchjax.scan_gradients``); same numbers, less time.
 """
 from __future__ import annotations
 
-import functools
-from collections.abc import Mapping
-
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from stitchjax import features as F
 from stitchjax import networks
 from stitchjax import rotations as R
+from stitchjax import scan_gradients
 from stitchjax import skeleton as skel
 
 __all__ = ["rollout", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule", "interpolation_weight",
-           "direction_frames", "next_frame_states", "zero_probes", "kernel_gradients", "GAUSSIAN_KEYS"]
+           "aligning_step", "stitch", "direction_frames", "next_frame_states", "GAUSSIAN_KEYS"]
 
 GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend", "mu_posterior",
                  "logvar_posterior")
@@ -149,6 +142,78 @@ def _stack_first(first, rest):
     return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b], axis=0), first, rest)
 
 
+def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probes_i=None, truth_i=None):
+    """One bidirectional aligning step (paper Eq. 2), the body of the rollout's scan.
+
+    f_{i+1} = G_fwd(f_i | target = latest backward frame), then b_{i+1} = G_bwd(b_i | target = f_{i+1})
+    (backward frames in reversed time). Without ``model.bidirectional_aligning`` each generator targets the
+    other keyframe; forward-only models skip the backward step. A generator that has made its frames
+    (``plan["n_forward"]`` / ``plan["n_backward"]``) holds its last frame.
+
+    carry: (forward LSTM carry, backward LSTM carry, latest forward frame, latest backward frame);
+    i: () step index; eps_i: (2, latent) noise; plan: {"length", "n_forward", "n_backward", "start",
+    "target"} (keyframes as frame dicts); probes_i / truth_i: this step's probes and posterior inputs
+    (forward, backward) or None. Returns (carry, outputs) with "forward" / "backward" frame dicts plus
+    their Gaussians, and "inputs" (recorded matmul inputs, None unless probed).
+    """
+    m = config.model
+    dtype = plan["start"]["rotations"].dtype
+    length = plan["length"]
+    probe = (lambda name: None) if probes_i is None else probes_i.get
+    truth_fwd, truth_bwd = (None, None) if truth_i is None else truth_i
+    fwd_carry, bwd_carry, fwd, bwd = carry
+    aligned = m.bidirectional and m.bidirectional_aligning
+    if aligned:
+        f_target, f_dist = _reverse(bwd), length + 1 - 2 * i
+    else:
+        f_target, f_dist = plan["target"], length + 1 - i
+    gamma = interpolation_weight(config, i + 1, plan["n_forward"], length).astype(dtype)
+    new_carry, new_fwd, g_fwd, inputs = _step(gen_params["forward"], phase_params, config, fwd_carry, fwd,
+                                              f_target, f_dist, gamma, eps_i[0], probe("forward"), truth_fwd)
+    fwd_carry, fwd = _hold(i < plan["n_forward"], (new_carry, new_fwd), (fwd_carry, fwd))
+    out = {"forward": {**fwd, **g_fwd}, "inputs": {"forward": inputs}}
+    if m.bidirectional:
+        if aligned:
+            b_target, b_dist = _reverse(fwd), length - 2 * i
+        else:
+            b_target, b_dist = plan["start"], length + 1 - i
+        gamma = interpolation_weight(config, i + 1, plan["n_backward"], length).astype(dtype)
+        new_carry, new_bwd, g_bwd, inputs = _step(gen_params["backward"], phase_params, config, bwd_carry, bwd,
+                                                  b_target, b_dist, gamma, eps_i[1], probe("backward"), truth_bwd)
+        bwd_carry, bwd = _hold(i < plan["n_backward"], (new_carry, new_bwd), (bwd_carry, bwd))
+        out["backward"] = {**bwd, **g_bwd}
+        out["inputs"]["backward"] = inputs
+    return (fwd_carry, bwd_carry, fwd, bwd), out
+
+
+def stitch(fwd_all, bwd_all, length, h, k, num_frames: int, bidirectional: bool = True):
+    """Linear stitch blend of the two sequences into ``num_frames`` frames (paper section 3.1).
+
+    fwd_all / bwd_all: frame dicts with a leading axis, fwd_all[t] = frame t, bwd_all[r] = frame L + 1 - r.
+    On the 2k overlapping frames h - k + 1 .. h + k the backward weight rises linearly (j + 1) / (2k + 1);
+    before them the forward frames, after them the backward ones. Rotations by sign-aligned normalised
+    lerp (the lighter-weighted sequence joins the other's hemisphere, so frames outside the overlap stay
+    exact), root positions and contacts linearly. Returns (rotations (T, J, 4), root (T, 3), contacts (T, C)).
+    """
+    t = jnp.arange(num_frames, dtype=jnp.int32)
+    from_fwd = _take(fwd_all, t)
+    from_bwd = _take(bwd_all, length + 1 - t)
+    dtype = from_fwd["root"].dtype
+    if bidirectional:
+        w = jnp.clip((t - (h - k)).astype(dtype) / (2 * k + 1).astype(dtype), 0.0, 1.0)
+    else:
+        w = jnp.zeros((num_frames,), dtype)
+    q_f, q_b = from_fwd["rotations"], from_bwd["rotations"]
+    sign = jnp.where(jnp.sum(q_f * q_b, axis=-1, keepdims=True) < 0, -1.0, 1.0).astype(dtype)
+    w3 = w[:, None, None]
+    q_f = jnp.where(w3 >= 0.5, sign * q_f, q_f)
+    q_b = jnp.where(w3 < 0.5, sign * q_b, q_b)
+    rot = R.quat_normalize((1 - w3) * q_f + w3 * q_b)
+    root = (1 - w)[:, None] * from_fwd["root"] + w[:, None] * from_bwd["root"]
+    contacts = (1 - w)[:, None] * from_fwd["contacts"] + w[:, None] * from_bwd["contacts"]
+    return rot, root, contacts
+
+
 def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int, noise=None,
             probes=None, ground_truth=None, noise_scale=1.0):
     """Generate one transition.
@@ -166,8 +231,8 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
       noise: optional (num_steps(config, max_length), 2, latent_dim) standard normal latent noise
         ([:, 0] forward, [:, 1] backward) used instead of drawing it from ``key`` (latent search).
       probes: optional {"forward", "backward"} zero probes with a leading (num_steps,) axis
-        (:func:`zero_probes`); then the result is (dict, inputs), inputs = the generators' kernel-matmul
-        inputs per step, {"forward", "backward"} trees of (num_steps, in) arrays (:func:`kernel_gradients`).
+        (``scan_gradients.zero_probes``); then the result is (dict, inputs), inputs = the generators'
+        kernel-matmul inputs per step, {"forward", "backward"} trees of (num_steps, in) arrays.
       ground_truth: optional {"forward", "backward"} (num_steps, S) ground-truth states of the frames each
         step makes (:func:`next_frame_states`): z is drawn from the posterior (model.posterior must not be
         "none"). None: z from the prior; the ground truth is never read.
@@ -190,7 +255,6 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     n = num_steps(config, max_length)
     h, k, n_fwd, n_bwd = schedule(config, length)
     bidir = m.bidirectional
-    aligned = m.bidirectional_aligning
 
     def keyframe(kf):
         return {"rotations": kf["rotations"], "root": kf["root_position"],
@@ -212,35 +276,11 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     steps = jnp.arange(n, dtype=jnp.int32)
     carry0 = networks.initial_carry(config, dtype)
 
+    plan = {"length": length, "n_forward": n_fwd, "n_backward": n_bwd, "start": start_frame, "target": target_frame}
+
     def body(carry, xs):
         i, eps_i, probes_i, truth_i = xs
-        probe = (lambda name: None) if probes_i is None else probes_i.get
-        truth_fwd, truth_bwd = (None, None) if truth_i is None else truth_i
-        fwd_carry, bwd_carry, fwd, bwd = carry
-        gamma = interpolation_weight(config, i + 1, n_fwd, length).astype(dtype)
-        if bidir and aligned:
-            f_target, f_dist = _reverse(bwd), length + 1 - 2 * i
-        else:
-            f_target, f_dist = target_frame, length + 1 - i
-        new_carry, new_fwd, g_fwd, inputs = _step(gen_params["forward"], phase_params, config, fwd_carry, fwd,
-                                                  f_target, f_dist, gamma, eps_i[0], probe("forward"), truth_fwd)
-        valid = i < n_fwd
-        fwd_carry, fwd = _hold(valid, (new_carry, new_fwd), (fwd_carry, fwd))
-        out = {"forward": {**fwd, **g_fwd}, "inputs": {"forward": inputs}}
-        if bidir:
-            if aligned:
-                b_target, b_dist = _reverse(fwd), length - 2 * i
-            else:
-                b_target, b_dist = start_frame, length + 1 - i
-            gamma = interpolation_weight(config, i + 1, n_bwd, length).astype(dtype)
-            new_carry, new_bwd, g_bwd, inputs = _step(gen_params["backward"], phase_params, config, bwd_carry,
-                                                      bwd, b_target, b_dist, gamma, eps_i[1], probe("backward"),
-                                                      truth_bwd)
-            valid = i < n_bwd
-            bwd_carry, bwd = _hold(valid, (new_carry, new_bwd), (bwd_carry, bwd))
-            out["backward"] = {**bwd, **g_bwd}
-            out["inputs"]["backward"] = inputs
-        return (fwd_carry, bwd_carry, fwd, bwd), out
+        return aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probes_i, truth_i)
 
     init = (carry0, carry0, start_frame, target_frame)
     _, seq = jax.lax.scan(body, init, (steps, eps, probes, truth))
@@ -256,21 +296,7 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     # Stitch into T_out frames.
     t_out = max_length + 2
     t = jnp.arange(t_out, dtype=jnp.int32)
-    from_fwd = _take(fwd_all, t)
-    from_bwd = _take(bwd_all, length + 1 - t)
-    if bidir:
-        w = jnp.clip((t - (h - k)).astype(dtype) / (2 * k + 1).astype(dtype), 0.0, 1.0)
-    else:
-        w = jnp.zeros((t_out,), dtype)
-    q_f, q_b = from_fwd["rotations"], from_bwd["rotations"]
-    sign = jnp.where(jnp.sum(q_f * q_b, axis=-1, keepdims=True) < 0, -1.0, 1.0).astype(dtype)
-    # the lighter-weighted sequence joins the other's hemisphere: frames outside the overlap stay exact
-    w3 = w[:, None, None]
-    q_f = jnp.where(w3 >= 0.5, sign * q_f, q_f)
-    q_b = jnp.where(w3 < 0.5, sign * q_b, q_b)
-    rot = R.quat_normalize((1 - w3) * q_f + w3 * q_b)
-    root = (1 - w)[:, None] * from_fwd["root"] + w[:, None] * from_bwd["root"]
-    contacts = (1 - w)[:, None] * from_fwd["contacts"] + w[:, None] * from_bwd["contacts"]
+    rot, root, contacts = stitch(fwd_all, bwd_all, length, h, k, t_out, bidir)
     is_start, is_target = (t == 0), (t >= length + 1)
 
     def pin(x, first, last):
@@ -379,95 +405,20 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
     truth = None
     if posterior and config.model.posterior != "none":
         truth = next_frame_states(batch, length, num_steps(config, max_length), config)
+
+    def run(generators, inputs, constants, probes):
+        phase_params, start, target, offsets, truth = inputs
+        keys, length = constants
+
+        def one(s, t, o, k, g, p):
+            return rollout(generators, phase_params, s, t, o, k, config, length, max_length, probes=p,
+                           ground_truth=g)
+
+        return jax.vmap(one)(start, target, offsets, keys, truth, probes)
+
+    inputs, constants = (phase_params, start, target, offsets, truth), (keys, length)
     if config.train.weight_gradients_after_scan:
-        return _rollout_batch_probed(generators, phase_params, start, target, offsets, keys, length, truth,
-                                     config, max_length)
-    return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, truth, config,
-                            max_length)
-
-
-def _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, truth, config, max_length,
-                     probes=None):
-    def one(s, t, o, k, g, p):
-        return rollout(generators, phase_params, s, t, o, k, config, length, max_length, probes=p, ground_truth=g)
-
-    return jax.vmap(one)(start, target, offsets, keys, truth, probes)
-
-
-_KERNEL_NAMES = ("kernel", "input_kernel", "hidden_kernel")  # networks.kernel_matmul parameter names
-
-
-def _kernels(tree: dict, fn) -> dict:
-    """The sub-tree of ``tree`` (nested dicts) whose leaves are kernels, with ``fn`` applied to them."""
-    out = {}
-    for name, value in tree.items():
-        if isinstance(value, Mapping):
-            out[name] = _kernels(value, fn)
-        elif name in _KERNEL_NAMES:
-            out[name] = fn(value)
-    return out
-
-
-def zero_probes(generators: dict, leading: tuple) -> dict:
-    """Zero probes {"forward", "backward"}: per kernel (in, ...) of each generator a (*leading, out) array,
-    out = kernel.size // in (an expert kernel (in, E, out') flattens to E * out')."""
-    return {name: _kernels(params["params"], lambda k: jnp.zeros(leading + (k.size // k.shape[0],), k.dtype))
-            for name, params in generators.items()}
-
-
-def kernel_gradients(generators: dict, inputs: dict, probe_grads: dict, matmul_dtype: str = "float32") -> dict:
-    """Kernel gradients {name: {"params": tree of kernel-shaped arrays}}: sum over all leading axes of
-    x^T dy, with x the recorded matmul inputs (..., in) and dy the probes' gradients (..., out).
-    matmul_dtype: operand precision of these products (float32 accumulation either way)."""
-    low = networks.MATMUL_DTYPES[matmul_dtype]
-
-    def gradient(kernel, x, dy):
-        x, dy = x.astype(low), dy.astype(low)
-        dk = jnp.einsum("...i,...o->io", x, dy, preferred_element_type=jnp.float32)
-        return dk.reshape(kernel.shape).astype(kernel.dtype)
-
-    def walk(kernels, recorded, dy):  # only the kernels whose matmul ran (recorded an input)
-        return {name: (walk(kernels[name], value, dy[name]) if isinstance(value, Mapping)
-                       else gradient(kernels[name], value, dy[name])) for name, value in recorded.items()}
-
-    return {name: {"params": walk(generators[name]["params"], recorded, probe_grads[name])}
-            for name, recorded in inputs.items()}
-
-
-def _add_kernel_gradients(grads: dict, kernel_grads: dict) -> dict:
-    """grads with the arrays of the (sub-)tree kernel_grads added at the same places."""
-    out = dict(grads)
-    for name, value in kernel_grads.items():
-        out[name] = _add_kernel_gradients(grads[name], value) if isinstance(value, Mapping) else grads[name] + value
-    return out
-
-
-@functools.partial(jax.custom_vjp, nondiff_argnums=(8, 9))
-def _rollout_batch_probed(generators, phase_params, start, target, offsets, keys, length, truth, config,
-                          max_length):
-    return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, truth, config,
-                            max_length)
-
-
-def _probed_forward(generators, phase_params, start, target, offsets, keys, length, truth, config, max_length):
-    leading = (keys.shape[0], num_steps(config, max_length))
-    probes = zero_probes(generators, leading)
-
-    def probed(generators, phase_params, start, target, offsets, truth, probes):
-        return _rollout_vmapped(generators, phase_params, start, target, offsets, keys, length, truth, config,
-                                max_length, probes)
-
-    out, vjp_fn, inputs = jax.vjp(probed, generators, phase_params, start, target, offsets, truth, probes,
-                                  has_aux=True)
-    return out, (vjp_fn, generators, inputs)
-
-
-def _probed_backward(config, max_length, residuals, cotangent):
-    vjp_fn, generators, inputs = residuals
-    d_generators, d_phase, d_start, d_target, d_offsets, d_truth, d_probes = vjp_fn(cotangent)
-    kernel_grads = kernel_gradients(generators, inputs, d_probes, config.model.matmul_dtype)
-    d_generators = _add_kernel_gradients(d_generators, kernel_grads)
-    return d_generators, d_phase, d_start, d_target, d_offsets, None, None, d_truth
-
-
-_rollout_batch_probed.defvjp(_probed_forward, _probed_backward)
+        leading = (keys.shape[0], num_steps(config, max_length))
+        run_probed = scan_gradients.gradients_after_scan(run, leading, config.model.matmul_dtype)
+        return run_probed(generators, inputs, constants)
+    return run(generators, inputs, constants, None)

@@ -40,6 +40,7 @@ import math
 import os
 import pathlib
 import signal
+import sys
 import time
 from typing import Any, Callable
 
@@ -108,7 +109,24 @@ def maybe_initialize_distributed(force: bool = False) -> bool:
     env = ("JAX_COORDINATOR_ADDRESS", "JAX_NUM_PROCESSES", "JAX_PROCESS_ID")
     if not force and not any(os.environ.get(name) for name in env):
         return False
-    jax.distributed.initialize()
+    kwargs = {}
+    for name, key in (("JAX_COORDINATOR_ADDRESS", "coordinator_address"), ("JAX_NUM_PROCESSES", "num_processes"),
+                      ("JAX_PROCESS_ID", "process_id")):
+        text = os.environ.get(name, "").strip()
+        if not text:
+            continue
+        if key != "coordinator_address":
+            try:
+                kwargs[key] = int(text)
+            except ValueError:
+                raise TrainingError(f"{name}={text!r} must be a whole number") from None
+        else:
+            kwargs[key] = text
+    if "num_processes" in kwargs and "process_id" in kwargs \
+            and not 0 <= kwargs["process_id"] < kwargs["num_processes"]:
+        raise TrainingError(f"JAX_PROCESS_ID={kwargs['process_id']} must be in 0..JAX_NUM_PROCESSES-1 "
+                            f"({kwargs['num_processes'] - 1})")
+    jax.distributed.initialize(**kwargs)
     return True
 
 
@@ -515,7 +533,13 @@ def load_windows_and_stats(config, data_dir):
         stats = h36m.train_statistics(data_dir, data.train_subjects, window=data.window, offset=data.offset) \
             if hasattr(h36m, "train_statistics") else None
         return windows, stats
-    raise ValueError(f"config.data.dataset={dataset_name!r}: expected 'lafan1' or 'h36m'")
+    if dataset_name == "bvh_folder":
+        from stitchjax import bvh_folder
+
+        if data_dir is None:
+            raise FileNotFoundError("the bvh_folder dataset needs --data DIR (a folder of .bvh / .bvh.gz files)")
+        return bvh_folder.load_windows_and_stats(data_dir, data)
+    raise ValueError(f"config.data.dataset={dataset_name!r}: expected 'lafan1', 'h36m' or 'bvh_folder'")
 
 
 def stats_to_json(stats) -> dict:
@@ -556,6 +580,38 @@ def reverse_time(dataset: dict) -> dict:
 
 
 # ------------------------------------------------------------------------------------------------ loop
+
+
+def _newest_readable_config(workdir) -> tuple[int, dict]:
+    """(step, config JSON) of the newest checkpoint whose config file reads (for the resume check)."""
+    steps = checkpoints.saved_steps(workdir)
+    for step in reversed(steps):
+        try:
+            return step, checkpoints.read_config_json(workdir, step)
+        except (OSError, ValueError):  # missing or truncated JSON: the restore will fall back too
+            continue
+    return (steps[-1] if steps else -1), {}
+
+
+def _set_aside_newer_steps(manager, workdir, restored: int, report) -> None:
+    """Rename the broken step folders newer than `restored` to `<step>.broken` (nothing is deleted), so
+    the resumed run can save those steps again; process 0 renames, the others wait for it."""
+    folder = checkpoints.checkpoint_dir(workdir)
+    if jax.process_index() == 0:
+        for step in checkpoints.saved_steps(workdir):
+            if step > restored:
+                target = folder / f"{step}.broken"
+                n = 1
+                while target.exists():
+                    target, n = folder / f"{step}.broken{n}", n + 1
+                (folder / str(step)).rename(target)
+                if report is not None:
+                    report(f"warning: moved the broken checkpoint {folder / str(step)} to {target}")
+    if jax.process_count() > 1:
+        from jax.experimental import multihost_utils
+
+        multihost_utils.sync_global_devices("stitchjax-set-aside-broken-checkpoints")
+    manager.reload()
 
 
 class _StopFlag:
@@ -622,15 +678,31 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
     latest = manager.latest_step()
     config_json = config_lib.to_dict(config)
     if latest is not None:
-        saved = checkpoints.read_config_json(workdir, latest)
+        saved_step, saved = _newest_readable_config(workdir)
+        try:  # fields added since that run was saved take their legacy / default value, as when loading it
+            saved = config_lib.to_dict(config_lib.from_dict(saved))
+        except (config_lib.ConfigError, TypeError):
+            pass
         changed = [section for section in ("data", "model", "loss", "phase")
                    if saved.get(section) != config_json.get(section)]
         if changed:
             checkpoints.close(manager)
             raise TrainingError(
-                f"{workdir} holds a run (step {latest}) whose {', '.join(changed)} config differs from this one; "
-                "resume with the same config and overrides (only train.* may change), or use a new --workdir")
-        state, _, _ = checkpoints.restore(manager, abstract_train_state(config, mesh), latest)
+                f"{workdir} holds a run (step {saved_step}) whose {', '.join(changed)} config differs from this "
+                "one; resume with the same config and overrides (only train.* may change), or use a new --workdir")
+        report = (lambda message: print(message, file=sys.stderr)) if is_main else None
+        try:
+            state, _, _, restored = checkpoints.restore_newest_good(
+                manager, abstract_train_state(config, mesh), report=report)
+        except checkpoints.CheckpointError as error:
+            checkpoints.close(manager)
+            raise TrainingError(str(error)) from None
+        if restored != latest:
+            _set_aside_newer_steps(manager, workdir, restored, report)
+            latest = restored
+        if is_main:
+            print(f"resuming from step {restored} ({checkpoints.checkpoint_dir(workdir) / str(restored)})",
+                  file=sys.stderr)
         log.truncate_after(int(latest))
     else:
         phase_params = None

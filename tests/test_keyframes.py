@@ -1,0 +1,165 @@
+"""Keyframes from anywhere (issue 12, items 2-3): another take, a placed target, another frame rate,
+another scale, extra joints, transition lengths beyond training, and the CLI's up-front checks.
+
+All rollouts use the tiny model's (length 8, 4 candidates), as tests/test_inbetween.py does, so the
+sampler compiles once."""
+import dataclasses
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from stitchjax import bvh, conform, inbetween, rotations as R, sample
+from stitchjax.skeleton import Skeleton
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+LENGTH, SAMPLES = 8, 4
+
+
+@pytest.fixture(scope="module")
+def take():
+    return bvh.load(sample.sample_files(["subject5"])[0])
+
+
+@pytest.fixture(scope="module")
+def model(tiny_run, take):
+    """The tiny model, with the training skeleton's offsets a trained run saves (for the units check)."""
+    loaded = inbetween.load_model(tiny_run)
+    offsets = np.array(take.skeleton.offsets)
+    offsets[0] = 0.0
+    return dataclasses.replace(loaded, stats={**loaded.stats, "offsets": offsets})
+
+
+def test_length_beyond_training_is_an_error_naming_both(model, take):
+    assert model.trained_max_length == LENGTH
+    with pytest.raises(inbetween.InbetweenError, match=r"length 9 is longer than the 8 frames"):
+        inbetween.inbetween(model, take[100], take[110], LENGTH + 1, SAMPLES)
+    with pytest.raises(inbetween.InbetweenError, match=r"length 19 is longer than the 8 frames.*allow_extrapolation"):
+        inbetween.inbetween_clip(model, take, 100, 120, num_samples=SAMPLES)
+    with pytest.raises(inbetween.InbetweenError, match=r"length 30 .* 8 frames"):
+        inbetween.inbetween_takes(model, take, 100, take, 200, 30, SAMPLES)
+
+
+def test_target_from_another_take_placed_by_offset_and_turn(model, take):
+    other = bvh.load(sample.sample_files(["subject1"])[0])
+    samples = inbetween.inbetween_takes(model, take, 100, other, 50, LENGTH, SAMPLES, seed=0,
+                                        offset=(300.0, 0.0, 0.0), turn_degrees=90.0, output="transition")
+    placed = conform.place(other, (300.0, 0.0, 0.0), 90.0, pivot=50)
+    want_end = placed[50].global_positions()[0]
+    # the placed target: root moved by 300 cm along x, the body turned a quarter about the vertical
+    np.testing.assert_allclose(placed.positions[50, 0], other.positions[50, 0] + [300.0, 0.0, 0.0], atol=1e-9)
+    heading = R.quat_rotate(placed.rotations[50, 0], np.array([0.0, 1.0, 0.0]))
+    before = R.quat_rotate(other.rotations[50, 0], np.array([0.0, 1.0, 0.0]))
+    angle = np.degrees(np.arctan2(before[2], before[0]) - np.arctan2(heading[2], heading[0])) % 360
+    assert abs(angle - 90.0) < 1e-6
+    for s in samples:
+        assert s.num_frames == LENGTH + 2
+        g = s.global_positions()
+        assert np.abs(g[0] - take[100].global_positions()[0]).max() < 1e-4
+        assert np.abs(g[-1] - want_end).max() < 1e-4
+    appended = inbetween.inbetween_takes(model, take, 100, other, 50, LENGTH, 1, offset=(300.0, 0.0, 0.0),
+                                         turn_degrees=90.0, output="appended")[0]
+    assert appended.num_frames == 100 + LENGTH + 2
+    np.testing.assert_allclose(appended.global_positions()[:101], take[:101].global_positions(), atol=1e-9)
+    np.testing.assert_allclose(appended.global_positions()[-1], want_end, atol=1e-4)
+
+
+def test_take_in_metres_is_refused_with_the_ratio_and_the_fix(model, take):
+    metres = conform.rescale(take, 0.01)
+    with pytest.raises(inbetween.InbetweenError, match=r"0\.01 times as long.*rescale it by 100.*--scale 100"):
+        inbetween.inbetween_clip(model, metres, 100, 100 + LENGTH + 1, num_samples=SAMPLES)
+    fixed = inbetween.inbetween_takes(model, metres, 100, metres, 100 + LENGTH + 1, None, SAMPLES, scale=100.0,
+                                      output="clip")
+    g = fixed[0].global_positions()
+    want = metres.global_positions()
+    assert fixed[0].num_frames == metres.num_frames
+    assert np.abs(g[100] - want[100]).max() < 1e-6 and np.abs(g[109] - want[109]).max() < 1e-6  # metres out
+    assert np.abs(g[101:109, 0, 1]).max() < 10.0  # generated frames in metres too (hips ~0.9, not ~90)
+
+
+def test_take_at_120_fps_is_resampled_and_keeps_the_keyframes(model, take):
+    fast, anchor = conform.resample(take[80:140], 120.0, 20)  # frame 100 of the take -> frame 80 at 120 fps
+    assert fast.fps == 120.0 and anchor == 80 and fast.num_frames == 237
+    np.testing.assert_array_equal(fast.rotations[80], take.rotations[100])
+    a, b = 80, 80 + 4 * (LENGTH + 1)  # frames 100 and 109 of the 30 fps take
+    clips = inbetween.inbetween_clip(model, fast, a, b, num_samples=SAMPLES)
+    out = clips[0]
+    assert out.fps == 30.0  # written at the model's rate, so it plays at the right speed
+    assert out.num_frames == 60  # the 120 fps take spans 60 frames at 30 fps
+    g, want = out.global_positions(), take[80:140].global_positions()
+    assert np.abs(g[20] - want[20]).max() < 1e-6 and np.abs(g[29] - want[29]).max() < 1e-6
+    np.testing.assert_allclose(g[:20], want[:20], atol=1e-6)  # the resampled frames land on the originals
+    # root speed per second outside the transition equals the 30 fps take's (not four times it)
+    speed = np.linalg.norm(np.diff(g[30:, 0], axis=0), axis=-1).mean() * out.fps
+    speed_ref = np.linalg.norm(np.diff(want[30:, 0], axis=0), axis=-1).mean() * 30.0
+    assert abs(speed - speed_ref) < 1e-6 * max(speed_ref, 1.0)
+
+
+def _with_extra_root(motion):
+    """The take under an extra root bone "Root" above Hips (as some LAFAN1-derived files have)."""
+    sk = motion.skeleton
+    names = ("Root",) + sk.names
+    parents = (-1,) + tuple(p + 1 for p in sk.parents)
+    offsets = np.concatenate([np.zeros((1, 3)), sk.offsets])
+    rot = np.concatenate([np.broadcast_to(R.quat_identity((1,)), (motion.num_frames, 1, 4)), motion.rotations], 1)
+    lift = np.array([0.0, 5.0, 0.0])  # the root bone sits 5 cm below, the hips keep their world position
+    pos = np.concatenate([motion.positions[:, :1] - lift, motion.positions], 1)
+    pos[:, 1] = lift
+    offsets[1] = lift
+    return bvh.Motion(rot, pos, Skeleton(names, parents, offsets), motion.fps)
+
+
+def test_extra_joints_are_mapped_by_name_and_missing_ones_named(model, take):
+    extra = _with_extra_root(take[90:120])
+    np.testing.assert_allclose(extra.global_positions()[:, 1:], take[90:120].global_positions(), atol=1e-9)
+    out = inbetween.inbetween_clip(model, extra, 10, 10 + LENGTH + 1, num_samples=SAMPLES)[0]
+    assert out.skeleton.names == take.skeleton.names  # written on the model's skeleton
+    np.testing.assert_allclose(out.global_positions()[[10, 19]], take[[100, 109]].global_positions(), atol=1e-4)
+    sk = take.skeleton
+    renamed = Skeleton(sk.names[:13] + ("Skull",) + sk.names[14:], sk.parents, sk.offsets)
+    with pytest.raises(inbetween.InbetweenError, match=r"lacks joint Head .*has Skull instead"):
+        inbetween.inbetween_clip(model, dataclasses.replace(take, skeleton=renamed), 100, 109, num_samples=SAMPLES)
+
+
+def _cli(*args):
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    return subprocess.run([sys.executable, str(REPO / "bin" / "inbetween"), *map(str, args)],
+                          capture_output=True, text=True, env=env, timeout=300)
+
+
+def test_cli_refuses_out_on_a_file_long_lengths_and_bad_target_flags(tiny_run, tmp_path):
+    source = sample.sample_files(["subject5"])[0]
+    existing = tmp_path / "existing.txt"
+    existing.write_text("keep me")
+    base = ["--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100]
+    result = _cli(*base, "--end-frame", 109, "--out", existing)
+    assert result.returncode == 2 and "--out" in result.stderr and "is a file" in result.stderr
+    assert result.stderr.strip().count("\n") == 0 and existing.read_text() == "keep me"
+    result = _cli(*base, "--end-frame", 130, "--out", tmp_path / "o")
+    assert result.returncode == 2 and "length 29 is longer than the 8 frames" in result.stderr
+    assert "--allow-extrapolation" in result.stderr and not (tmp_path / "o").exists()
+    result = _cli(*base, "--target-bvh", source, "--out", tmp_path / "o")
+    assert result.returncode == 2 and "--target-frame" in result.stderr
+    result = _cli(*base, "--target-bvh", source, "--target-frame", 50, "--out", tmp_path / "o")
+    assert result.returncode == 2 and "--length" in result.stderr
+    result = _cli(*base, "--target-bvh", source, "--target-frame", 50, "--length", 8, "--target-offset", "3,x",
+                  "--out", tmp_path / "o")
+    assert result.returncode == 2 and "--target-offset" in result.stderr
+
+
+def test_cli_target_from_another_take_with_offset_and_turn(tiny_run, tmp_path):
+    source = sample.sample_files(["subject5"])[0]
+    other = sample.sample_files(["subject1"])[0]
+    result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--target-bvh", other,
+                  "--target-frame", 50, "--length", LENGTH, "--target-offset", "300,0,0", "--target-turn", 90,
+                  "--samples", SAMPLES, "--output", "transition", "--out", tmp_path)
+    assert result.returncode == 0, result.stderr
+    files = sorted(tmp_path.glob("*.bvh"))
+    assert len(files) == SAMPLES
+    want = conform.place(bvh.load(other), (300.0, 0.0, 0.0), 90.0, pivot=50)[50].global_positions()[0]
+    for path in files:
+        g = bvh.load(path).global_positions()
+        assert g.shape[0] == LENGTH + 2 and np.abs(g[-1] - want).max() < 1e-3

@@ -1,0 +1,165 @@
+"""The conditional VAE: the posterior at training, the prior at inference, noise scale, KL(q || p),
+the interpolation-weight schedule, legacy configs and the reversed phase pretraining data."""
+import json
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from stitchjax import config as C
+from stitchjax import inbetween, losses, metrics, train
+from stitchjax import networks as N
+from stitchjax import rollout as RO
+
+from test_rollout import phase_params_for, synthetic_batch, tiny_config
+
+LENGTH = 8
+
+
+@pytest.fixture(scope="module")
+def setup():
+    config = tiny_config()
+    params = N.init_params(config, jax.random.PRNGKey(0))
+    return config, params, phase_params_for(config), synthetic_batch()
+
+
+def _changed_in_between(batch, seed=5):
+    """The batch with every frame strictly between the keyframes 0 and LENGTH + 1 replaced by noise."""
+    rng = np.random.default_rng(seed)
+    out = dict(batch)
+    for name in ("rotations", "root_positions", "contacts", "global_positions"):
+        x = np.array(batch[name])
+        x[:, 1:LENGTH + 1] = rng.normal(size=x[:, 1:LENGTH + 1].shape)
+        out[name] = jnp.asarray(x, jnp.float32)
+    return out
+
+
+def test_posterior_params_exist_only_with_a_posterior(setup):
+    config, params, _, _ = setup
+    assert "posterior" in params["forward"]["params"] and "posterior" in params["backward"]["params"]
+    legacy = N.init_params(tiny_config("model.posterior=none"), jax.random.PRNGKey(0))
+    assert "posterior" not in legacy["forward"]["params"]
+
+
+def test_training_rollout_reads_the_ground_truth_and_inference_does_not(setup):
+    config, params, phase_params, batch = setup
+    other = _changed_in_between(batch)
+    key = jax.random.PRNGKey(1)
+
+    def run(b, posterior):
+        return RO.rollout_batch(params, phase_params, b, key, config, LENGTH, posterior=posterior)
+
+    # training (posterior): the in-between ground truth decides z, so the motion changes with it
+    assert float(jnp.abs(run(batch, True)["rotations"] - run(other, True)["rotations"]).max()) > 1e-4
+    # prior: identical whatever the in-between ground truth holds
+    np.testing.assert_array_equal(run(batch, False)["rotations"], run(other, False)["rotations"])
+    q = run(batch, True)["forward"]
+    assert float(jnp.abs(q["mu_posterior"] - q["mu_blend"]).max()) > 1e-4  # q is its own distribution
+    p = run(batch, False)["forward"]
+    np.testing.assert_array_equal(p["mu_posterior"], p["mu_blend"])  # no posterior at inference
+
+
+def test_evaluation_method_ignores_the_ground_truth_and_noise_scale_zero_collapses(tiny_run):
+    from stitchjax.windows import Windows
+    from stitchjax import sample, lafan1
+
+    model = inbetween.load_model(tiny_run)
+    windows = lafan1.load_windows(sample.sample_dir(), ("subject5",), window=30, offset=40)[:2]
+    rng = np.random.default_rng(0)
+    changed_rot = np.array(windows.rotations)
+    changed_rot[:, 10:10 + LENGTH] = rng.normal(size=changed_rot[:, 10:10 + LENGTH].shape)
+    changed_rot /= np.linalg.norm(changed_rot, axis=-1, keepdims=True)
+    changed = Windows(**{**{f: getattr(windows, f) for f in windows.__dataclass_fields__}, "rotations": changed_rot})
+    method = inbetween.model_method(model)
+    a = method(windows, 9, LENGTH, 4, 3)
+    b = method(changed, 9, LENGTH, 4, 3)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+    spread = metrics.joint_spread_per_window(a[1])
+    assert np.all(spread > 0)
+    still = inbetween.model_method(model, noise_scale=0.0)(windows, 9, LENGTH, 4, 3)
+    for x in still:
+        np.testing.assert_array_equal(x, np.broadcast_to(x[:1], x.shape))  # every sample identical
+    assert np.all(metrics.apd_per_window(still[1]) == 0)
+    half = inbetween.model_method(model, noise_scale=0.5)(windows, 9, LENGTH, 4, 3)
+    assert 0 < metrics.joint_spread_per_window(half[1]).mean() < spread.mean()
+    with pytest.raises(inbetween.InbetweenError, match="noise_scale"):
+        inbetween.model_method(model, noise_scale=-1.0)(windows, 9, LENGTH, 4, 3)
+
+
+def test_one_train_step_changes_the_posterior_and_the_kl_is_kl_q_p():
+    config = tiny_config()
+    data, _ = train.load_training_data(config, None)
+    data = {k: (x[:8, :10] if x.shape[1] > 1 else x[:8]) for k, x in data.items()}
+    mesh = train.make_mesh()
+    state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
+    before = jax.device_get(state.params)
+    state, m = train.make_train_step(config, mesh)(state, train.shard_dataset(data, mesh), jnp.int32(6))
+    after = jax.device_get(state.params)
+    for direction in ("forward", "backward"):
+        pairs = zip(jax.tree.leaves(before[direction]["params"]["posterior"]),
+                    jax.tree.leaves(after[direction]["params"]["posterior"]))
+        assert all(not np.array_equal(a, b) for a, b in pairs), direction
+    m = jax.device_get(m)
+    assert float(m["kl"]) > 0 and np.isfinite(float(m["kl_prior"]))
+    assert float(m["kl"]) != pytest.approx(float(m["kl_prior"]))  # KL(q || p), not KL(p || N(0, I))
+
+
+def test_gaussian_kl_free_bits_and_warmup():
+    mu_q, lv_q = jnp.array([[0.5, -1.0]]), jnp.array([[0.2, -0.3]])
+    mu_p, lv_p = jnp.array([[0.1, 0.0]]), jnp.array([[-0.1, 0.4]])
+    q = np.exp(np.array([0.2, -0.3])); p = np.exp(np.array([-0.1, 0.4]))
+    expected = np.sum(0.5 * (np.log(p / q) + (q + (np.array([0.4, -1.0])) ** 2) / p - 1))
+    np.testing.assert_allclose(losses.gaussian_kl(mu_q, lv_q, mu_p, lv_p), [expected], rtol=1e-5)
+    assert float(losses.gaussian_kl(mu_q, lv_q, mu_q, lv_q)[0]) == pytest.approx(0.0, abs=1e-6)
+    out = {"mu_posterior": mu_q, "logvar_posterior": lv_q, "mu_blend": mu_p, "logvar_blend": lv_p}
+    raw, penalised = losses.posterior_kl_loss(out, jnp.array([True]), free_bits=10.0)
+    assert float(raw) == pytest.approx(expected, rel=1e-5) and float(penalised) == pytest.approx(10.0)
+    assert [float(losses.kl_warmup(s, 100)) for s in (0, 50, 100, 500)] == [0.0, 0.5, 1.0, 1.0]
+    assert float(losses.kl_warmup(0, 0)) == 1.0
+
+
+def test_interpolation_weight_runs_from_zero_to_one_in_each_direction():
+    config = tiny_config()
+    h, k, n_fwd, n_bwd = (int(x) for x in RO.schedule(config, 48))
+    last_fwd = float(RO.interpolation_weight(config, n_fwd, n_fwd, 48))
+    last_bwd = float(RO.interpolation_weight(config, n_bwd, n_bwd, 48))
+    assert last_fwd == pytest.approx(1.0) and last_bwd == pytest.approx(1.0)
+    assert float(RO.interpolation_weight(config, 1, n_fwd, 48)) == pytest.approx(1 / n_fwd)
+    legacy = tiny_config("model.gamma_schedule=transition")
+    legacy_last = float(RO.interpolation_weight(legacy, n_fwd, n_fwd, 48))
+    assert legacy_last == pytest.approx(n_fwd / 49) and legacy_last < 0.6
+
+
+def test_configs_saved_before_the_posterior_load_as_they_were_trained():
+    saved = C.to_dict(C.load_config("tiny"))
+    for name in ("posterior", "z_every_layer", "decoder_uses_lstm", "gamma_schedule"):
+        del saved["model"][name]
+    del saved["phase"]["include_reversed"]
+    saved["train"]["length_counts_keyframes"] = False  # a removed field
+    old = C.from_dict(json.loads(json.dumps(saved)))
+    assert (old.model.posterior, old.model.z_every_layer, old.model.decoder_uses_lstm,
+            old.model.gamma_schedule, old.phase.include_reversed) == ("none", False, True, "transition", False)
+    with pytest.raises(C.ConfigError, match="posterior must be one of"):
+        C.apply_overrides(C.load_config("tiny"), ["model.posterior=nope"])
+
+
+def test_reverse_time_and_phase_pretraining_on_reversed_windows():
+    data = {"rotations": np.arange(2 * 3 * 1 * 4.0).reshape(2, 3, 1, 4),
+            "root_positions": np.arange(18.0).reshape(2, 3, 3), "contacts": np.arange(6.0).reshape(2, 3, 1)}
+    rev = train.reverse_time(data)
+    np.testing.assert_array_equal(rev["root_positions"][:, 0], data["root_positions"][:, -1])
+    np.testing.assert_array_equal(rev["contacts"][:, ::-1], data["contacts"])
+
+
+def test_joint_spread_is_the_mean_pairwise_joint_distance():
+    a = np.zeros((1, 1, 2, 3, 3))
+    b = a.copy()
+    b[..., 0] = 3.0  # every joint 3 units away in x
+    samples = np.concatenate([a, b, a])  # pairs: (a, b) 3, (a, a) 0, (b, a) 3 -> mean 2
+    np.testing.assert_allclose(metrics.joint_spread_per_window(samples), [2.0])
+    c = a.copy()
+    c[:, :, 1] = 4.0
+    np.testing.assert_allclose(metrics.joint_spread_per_window(np.concatenate([a, c]), frame=0), [0.0])
+    assert metrics.joint_spread_per_window(a)[0] == 0.0
