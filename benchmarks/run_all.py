@@ -181,11 +181,19 @@ def synthetic_dataset(config, num_windows: int, num_frames: int, seed: int = 0) 
     }
 
 
+# The model the PyTorch twin mirrors: the lafan1 model as it was before the conditional-VAE fields (no
+# posterior, z into the first decoder layer only, the LSTM state into the decoder, gamma over the
+# transition), so both sides do the same work.
+TWIN_MODEL = ["model.posterior=none", "model.z_every_layer=false", "model.decoder_uses_lstm=true",
+              "model.gamma_schedule=transition"]
+
+
 def bench_config(batch: int = TRAIN_BATCH, length: int = TRAIN_LENGTH, extra=()):
-    """The lafan1 config with batch size and window = length + 2 frames."""
+    """The lafan1 config (the twin's model, TWIN_MODEL) with batch size and window = length + 2 frames."""
     from stitchjax import config as config_lib
 
-    overrides = [f"train.batch_size={batch}", f"data.window={length + 2}", f"train.max_length={length}"]
+    overrides = TWIN_MODEL + [f"train.batch_size={batch}", f"data.window={length + 2}",
+                              f"train.max_length={length}"]
     return config_lib.apply_overrides(config_lib.load_config("lafan1"), overrides + list(extra))
 
 
@@ -198,14 +206,14 @@ class JaxTrain:
     def __init__(self, config, length: int, num_windows: int | None = None, mesh=None):
         import jax
         import jax.numpy as jnp
-        from stitchjax import train
+        from stitchjax import parallel, train
 
         self.config = config
-        self.mesh = train.make_mesh() if mesh is None else mesh
+        self.mesh = parallel.make_mesh() if mesh is None else mesh
         batch = config.train.batch_size
         data = synthetic_dataset(config, num_windows or max(64, 2 * batch), length + 2)
         self.host_data = data
-        self.dataset = train.shard_dataset(data, self.mesh)
+        self.dataset = parallel.shard_dataset(data, self.mesh)
         self.state = train.create_train_state(config, jax.random.PRNGKey(0), None, self.mesh)
         self.length = jnp.int32(length)
         step = train.make_train_step(config, self.mesh)

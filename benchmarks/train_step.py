@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from stitchjax import config as config_lib
-from stitchjax import train
+from stitchjax import parallel, train
 
 
 def peak_rss_mib() -> float:
@@ -53,7 +53,7 @@ def device_memory() -> str:
 def time_step(config, data, length: int, steps: int, window: int | None, mesh, initial_state):
     """(compile_s, seconds per step) of train_step at `length` with the window cut to `window` frames."""
     state = jax.tree.map(jnp.copy, initial_state)  # the update donates its state argument
-    device_data = train.shard_dataset(data, mesh)
+    device_data = parallel.shard_dataset(data, mesh)
     sample = train.make_sampler(config, mesh, window)
     batch = sample(device_data, state.key, state.step)
     update = train.make_update_step(config, mesh)
@@ -93,7 +93,7 @@ def main() -> None:
 
     config = config_lib.apply_overrides(config_lib.load_config(args.config),
                                         [f"train.batch_size={args.batch}"] + args.overrides)
-    mesh = train.make_mesh()
+    mesh = parallel.make_mesh()
     data, _ = train.load_training_data(config, None)
     print(f"config {args.config}: batch {args.batch}, transition length {args.length}, window "
           f"{config.data.window} frames; {jax.device_count()} x {jax.devices()[0].device_kind} "

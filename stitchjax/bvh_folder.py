@@ -31,14 +31,13 @@ import re
 
 import numpy as np
 
-from stitchjax import cache, conform
+from stitchjax import bvh, cache, conform, h36m
 from stitchjax import rotations as R
-from stitchjax.skeleton import Skeleton, forward_kinematics
-from stitchjax.windows import (FACING_FRAME, Stats, Windows, center_and_face, contacts_from_displacement,
-                               window_indices, window_starts, window_statistics)
+from stitchjax.skeleton import LAFAN1_FEET, LAFAN1_JOINTS, Skeleton, forward_kinematics
+from stitchjax.windows import FACING_FRAME, Stats, Windows, clip_windows, concatenate_clips, window_statistics
 
 __all__ = ["BVHFolderError", "Resolved", "list_files", "split_files", "resolve", "load_take", "load_windows",
-           "load_windows_and_stats", "DATASET_SCALE_TOLERANCE"]
+           "load_windows_and_stats", "skeleton_facts", "DATASET_SCALE_TOLERANCE"]
 
 DATASET_SCALE_TOLERANCE = 0.3  # actors differ by ~10-20 %; units by 2.54x, 100x
 _CODE = ("stitchjax.rotations", "stitchjax.skeleton", "stitchjax.bvh", "stitchjax.windows",
@@ -174,18 +173,9 @@ def resolve(motion, data) -> Resolved:
     if head is None:  # the joint farthest from the feet
         head = int(np.argmax(np.linalg.norm(gpos - gpos[list(feet)].mean(0), axis=-1)))
     up_world = gpos[head] - gpos[list(feet)].mean(0)
-    if data.up_axis:
-        try:
-            up = conform.parse_axis(data.up_axis)
-        except conform.ConformError as error:
-            raise BVHFolderError(f"data.up_axis: {error}") from None
-    else:
-        up = _snap(up_world)
+    up = _declared_axis(data.up_axis, "up_axis") if data.up_axis else _snap(up_world)
     if data.forward_axis:
-        try:
-            forward = conform.parse_axis(data.forward_axis)
-        except conform.ConformError as error:
-            raise BVHFolderError(f"data.forward_axis: {error}") from None
+        forward = _declared_axis(data.forward_axis, "forward_axis")
     else:
         left, right = _find(names, "left", _UPLEG), _find(names, "right", _UPLEG)
         if left is None or right is None:
@@ -209,6 +199,43 @@ def resolve(motion, data) -> Resolved:
     return Resolved(feet, tuple(float(x) for x in up), tuple(float(x) for x in forward), scale)
 
 
+def skeleton_facts(data_dir, data) -> dict | None:
+    """What inference must know of a model's training skeleton, as saved in its checkpoint (JSON-able).
+
+    Returns {"joint_names": [J names], "feet": [C joint indices], "feet_names": [C names], "up_axis": the
+    files' up axis ("+y", "+z", ...), "forward_axis": the root's local forward axis, "unit_scale": cm per
+    file unit}. ``data.dataset`` "lafan1" / "h36m": their fixed facts (both +Y up and in cm once loaded);
+    "bvh_folder": resolved as :func:`load_windows` resolves them, on the first training file under
+    ``data_dir`` (None when ``data_dir`` is None: arrays prepared elsewhere, facts unknown).
+    """
+    dataset = getattr(data, "dataset", "lafan1")
+    if dataset == "lafan1":
+        names, feet, up, forward, scale = LAFAN1_JOINTS, LAFAN1_FEET, "+y", "+y", 1.0
+    elif dataset == "h36m":
+        names, feet, up, scale = h36m.JOINT_NAMES, h36m.FEET, "+y", 1.0
+        forward = conform.axis_name(h36m.FORWARD_AXIS)
+    elif dataset == "bvh_folder":
+        if data_dir is None:
+            return None
+        motion = bvh.load(split_files(data_dir, data, "train")[0])
+        resolved = resolve(motion, data)
+        names, feet, scale = motion.skeleton.names, resolved.feet, resolved.unit_scale
+        up, forward = conform.axis_name(resolved.up), conform.axis_name(resolved.forward)
+    else:
+        return None
+    names = [str(n) for n in names]
+    return {"joint_names": names, "feet": [int(j) for j in feet], "feet_names": [names[int(j)] for j in feet],
+            "up_axis": up, "forward_axis": forward, "unit_scale": float(scale)}
+
+
+def _declared_axis(text: str, field: str) -> np.ndarray:
+    """The unit axis ``data.<field>`` names ("+y", "-z", ...); BVHFolderError naming the field otherwise."""
+    try:
+        return conform.parse_axis(text)
+    except conform.ConformError as error:
+        raise BVHFolderError(f"data.{field}: {error}") from None
+
+
 def _snap(v) -> np.ndarray:
     """The signed coordinate axis nearest the direction ``v``."""
     v = np.asarray(v, np.float64)
@@ -220,8 +247,6 @@ def _snap(v) -> np.ndarray:
 
 def load_take(path, data, resolved: Resolved | None = None):
     """One file in the model's terms: (Motion in cm, +Y up, at ``data.fps``; its Resolved facts)."""
-    from stitchjax import bvh
-
     motion = bvh.load(path)
     resolved = resolve(motion, data) if resolved is None else resolved
     motion = conform.rescale(motion, resolved.unit_scale) if resolved.unit_scale != 1.0 else motion
@@ -236,7 +261,7 @@ def _build(files, data, window: int, offset: int) -> dict:
     first_motion, resolved = load_take(files[0], data)
     ref_offsets = first_motion.skeleton.offsets  # the training skeleton: every file is checked against it
     sk0 = first_motion.skeleton
-    parts = []
+    clips, sources = [], []
     for path in files:
         motion = first_motion if path == files[0] else load_take(path, data, resolved)[0]
         sk = motion.skeleton
@@ -249,27 +274,17 @@ def _build(files, data, window: int, offset: int) -> dict:
                                 tolerance=DATASET_SCALE_TOLERANCE)
         except conform.ConformError as error:
             raise BVHFolderError(str(error)) from None
-        starts = window_starts(motion.num_frames, window, offset)
-        if len(starts) == 0:
-            continue
-        idx = window_indices(starts, window)
-        _, gpos = forward_kinematics(motion.rotations, motion.positions, sk.parents)
-        feet = gpos[:, list(resolved.feet)]
-        step = np.sum((feet[1:] - feet[:-1]) ** 2, axis=-1)
-        rot, pos = center_and_face(motion.rotations[idx], motion.positions[idx], sk.parents, FACING_FRAME,
-                                   resolved.forward)
-        parts.append((rot, pos, contacts_from_displacement(step[idx[:, :-1]]),
-                      [f"{pathlib.Path(path).name}:{s}" for s in starts]))
-    j, c = sk0.num_joints, len(resolved.feet)
-    if not parts:
+        clip = clip_windows(motion.rotations, motion.positions, sk.parents, window, offset, resolved.feet,
+                            FACING_FRAME, resolved.forward)
+        clips.append(clip)
+        sources += [f"{pathlib.Path(path).name}:{s}" for s in clip["starts"]]
+    if not sources:
         raise BVHFolderError(f"no file is longer than {window} frames at {data.fps:g} fps: no windows")
-    return {"rotations": np.concatenate([p[0] for p in parts]), "positions": np.concatenate([p[1] for p in parts]),
-            "contacts": np.concatenate([p[2] for p in parts]).reshape(-1, window, c),
-            "sources": np.array([s for p in parts for s in p[3]], dtype=str),
+    return {**concatenate_clips(clips), "sources": np.array(sources, dtype=str),
             "names": np.array(sk0.names, dtype=str), "parents": np.array(sk0.parents, dtype=np.int64),
             "offsets": sk0.offsets, "feet": np.array(resolved.feet, dtype=np.int64),
             "forward": np.array(resolved.forward), "up": np.array(resolved.up),
-            "unit_scale": np.float64(resolved.unit_scale), "joints": np.int64(j)}
+            "unit_scale": np.float64(resolved.unit_scale), "joints": np.int64(sk0.num_joints)}
 
 
 def _params(data, window, offset, split) -> dict:

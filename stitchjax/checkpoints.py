@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import os
 import pathlib
 import sys
@@ -131,6 +132,36 @@ def _report_to_stderr(message: str) -> None:
     print(message, file=sys.stderr)
 
 
+def _ignore_closed_loop_errors(kind, error, traceback) -> None:
+    """sys.excepthook that drops "RuntimeError: Event loop is closed" and hands everything else on.
+
+    When orbax fails to restore a broken folder, the reads still in flight end later on TensorStore's
+    threads, whose callbacks find their asyncio loop gone and print that error with a traceback through
+    sys.excepthook; it says nothing about the checkpoint and would bury the one-line warning.
+    """
+    if kind is RuntimeError and "Event loop is closed" in str(error):
+        return
+    _previous_excepthook(kind, error, traceback)
+
+
+_previous_excepthook = sys.excepthook
+
+
+def _drop_closed_loop_tracebacks() -> None:
+    global _previous_excepthook
+    if sys.excepthook is not _ignore_closed_loop_errors:
+        _previous_excepthook = sys.excepthook
+        sys.excepthook = _ignore_closed_loop_errors
+
+
+def _silence_pending_read_errors() -> None:
+    """After a failed restore, the broken folder's other reads still fail in the background and asyncio /
+    concurrent.futures log each one with a traceback ("Task exception was never retrieved"); the one-line
+    warning already says the folder is broken, so those two loggers keep only critical records from now on."""
+    for name in ("asyncio", "concurrent.futures"):
+        logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
 def restore_newest_good(manager: ocp.CheckpointManager, abstract_state: Any,
                         report: Callable[[str], None] | None = _report_to_stderr,
                         steps: list[int] | None = None):
@@ -145,11 +176,13 @@ def restore_newest_good(manager: ocp.CheckpointManager, abstract_state: Any,
     steps = sorted(manager.all_steps() if steps is None else steps, reverse=True)
     if not steps:
         raise CheckpointError(f"no checkpoint found in {directory}")
+    _drop_closed_loop_tracebacks()
     failures = []
     for i, step in enumerate(steps):
         try:
             state, config_json, extras = restore(manager, abstract_state, step)
         except Exception as error:  # orbax / TensorStore raise many types for a broken folder
+            _silence_pending_read_errors()
             failures.append(f"{directory / str(step)}: {_short(error)}")
             if report is not None:
                 older = steps[i + 1] if i + 1 < len(steps) else None

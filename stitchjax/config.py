@@ -22,7 +22,7 @@ import typing
 __all__ = [
     "DataConfig", "ModelConfig", "LossConfig", "TrainConfig", "PhaseConfig", "Config",
     "load_config", "apply_overrides", "to_dict", "from_dict", "save_config", "read_config",
-    "configs_dir", "ConfigError",
+    "configs_dir", "ConfigError", "variant", "CHOICES",
 ]
 
 
@@ -91,6 +91,9 @@ class ModelConfig:
     stitch_buffer: int = 4  # reason: K (paper leaves it open); 2K = 8 overlap frames, clipped to L//2
     variance_blend: str = "std"  # reason: "std" blends mu and sigma linearly (the W2 geodesic between
     # diagonal Gaussians: sigma stays 1 when both are 1); "var" = law of (1-g)z + g z_t, z independent
+    contact_input_gradient: bool = False  # reason: True lets every later loss term's gradient flow into the
+    # contact outputs through their use as the next step's input, and they serve as hidden state instead of
+    # contacts: measured on quickstart (800 steps) contact term 1.74 with True, 1.40 with False (results/)
     stop_phase_gradient: bool = True  # reason: the phase network is frozen and only conditions gating
     disc_widths: tuple = (512, 256)  # reason: RMIB discriminators: temporal conv then 2 dense layers
     disc_short_window: int = 2  # paper/RMIB short discriminator: 2 frames
@@ -115,8 +118,9 @@ class LossConfig:
     prior_kl_weight: float = 0.0  # reason: the paper's KL(p || N(0, I)) as an extra term on the prior when
     # model.posterior is used (0 = off); with posterior "none" kl_weight already weights exactly that term
     prior_rollout: bool = False  # reason: True also rolls out every batch with z drawn from the prior and
-    # takes the adversarial and stitching terms on that rollout, so prior samples are trained to stitch and
-    # look natural (the posterior rollout alone never sees them); costs a second rollout per step
+    # takes the adversarial and stitching terms on that rollout (the posterior rollout alone never sees prior
+    # samples); measured on lafan1_cpu: 1.6x the step time, and the prior samples, held only by those two
+    # terms, stitch but degenerate (ADE 0.57 m against 0.29 m without it at L = 50; results/README.md)
     stitch_weight: float = 0.5  # paper alpha2 (0 = "no stitching loss" ablation)
     fk_weight: float = 0.5  # paper alpha3
     disc_weight: float = 0.1  # paper alpha4 (scales L_D in the discriminator update)
@@ -157,10 +161,10 @@ class TrainConfig:
 
 @dataclasses.dataclass(frozen=True)
 class PhaseConfig:
-    # Field names follow stitchjax.phase.PhaseSettings (the phase module reads them by name).
+    # Every knob of stitchjax.phase (local-phase labels, the phase network and its pretraining).
     window_seconds: float = 1.0  # reason: +-1 s fit window holds >= 1 period for F >= 0.5 Hz
-    min_frequency: float = 0.25  # DESIGN §5: sinusoid fit F in 0.25..4 Hz
-    max_frequency: float = 4.0  # DESIGN §5
+    min_frequency: float = 0.25  # DESIGN §5: sinusoid fit F in 0.25..4 Hz (lowest of the grid, Hz)
+    max_frequency: float = 4.0  # DESIGN §5 (highest of the grid, Hz)
     num_frequencies: int = 31  # reason: 0.125 Hz grid, finer than a 2 s window resolves
     smoothing_seconds: float = 0.05  # reason: removes 1-2 frame contact flicker
     ridge: float = 1.0  # reason: keeps near-degenerate low-frequency fits finite
@@ -221,6 +225,16 @@ def load_config(name: str) -> Config:
     if not isinstance(config, Config):
         raise ConfigError(f"{path}: get_config() returned {type(config).__name__}, not stitchjax Config")
     return config
+
+
+def variant(base: str, *overrides: str, name: str):
+    """``get_config`` of config ``base`` with "section.field=value" overrides and a new name; a config file
+    that changes a few fields is one line: ``get_config = variant("lafan1", "model.bidirectional=false",
+    name="ablate_no_bidirectional")``."""
+    def get_config() -> Config:
+        return dataclasses.replace(apply_overrides(load_config(base), list(overrides)), name=name)
+
+    return get_config
 
 
 # ---------------------------------------------------------------------------------------------
@@ -317,6 +331,7 @@ LEGACY_VALUES = {
     ("model", "z_every_layer"): False,
     ("model", "decoder_uses_lstm"): True,
     ("model", "gamma_schedule"): "transition",
+    ("model", "contact_input_gradient"): True,
     ("phase", "include_reversed"): False,
 }
 # Fields that were removed (read nowhere); ignored when a saved config has them.

@@ -8,7 +8,8 @@ dataset (``stitchjax.bvh_folder``) on load and by ``stitchjax.inbetween`` on key
 - :func:`scale_ratio`, :func:`check_scale`: the ratio of a skeleton's bone lengths to a reference one
   (units: metres vs centimetres), refused with the measured ratio and the fix;
 - :func:`rescale`: positions and offsets times a factor;
-- :func:`to_y_up`: the whole take turned so that its up axis becomes +Y (root transform only);
+- :func:`to_y_up`, :func:`from_y_up`: the whole take turned so that its up axis becomes +Y and back
+  (root transform only);
 - :func:`map_joints`: a take with extra joints (e.g. a root bone above Hips) onto a skeleton of named
   joints, refused with the names that differ;
 - :func:`place`: a take turned about the vertical axis and moved, relative to its own file.
@@ -23,7 +24,7 @@ from stitchjax import rotations as R
 from stitchjax.skeleton import Skeleton, forward_kinematics, inverse_kinematics
 
 __all__ = ["ConformError", "resample", "bone_lengths", "scale_ratio", "check_scale", "rescale", "parse_axis",
-           "to_y_up", "map_joints", "place", "SCALE_TOLERANCE"]
+           "axis_name", "up_turn", "to_y_up", "from_y_up", "map_joints", "place", "SCALE_TOLERANCE"]
 
 SCALE_TOLERANCE = 0.1  # bone lengths may differ from the reference by 10 % (other actors) before refusing
 
@@ -128,15 +129,43 @@ def parse_axis(text: str) -> np.ndarray:
     return v
 
 
+def axis_name(axis) -> str:
+    """(3,) signed coordinate axis -> "+y", "-z", ... (inverse of :func:`parse_axis`)."""
+    v = np.asarray(axis, np.float64)
+    k = int(np.argmax(np.abs(v)))
+    if v.shape != (3,) or not np.allclose(np.abs(v), np.eye(3)[k]):
+        raise ConformError(f"axis {tuple(v)} is not a signed coordinate axis (+x, -x, +y, -y, +z, -z)")
+    return ("+" if v[k] > 0 else "-") + "xyz"[k]
+
+
+def up_turn(up) -> np.ndarray:
+    """(4,) the world rotation taking the up direction ``up`` (3,) onto +Y (identity for +Y; a half turn
+    about +X for -Y). It also takes offsets given in the take's axes into the +Y-up frame."""
+    up = np.asarray(up, np.float64)
+    if np.allclose(up, (0.0, 1.0, 0.0)):
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    if np.allclose(up, (0.0, -1.0, 0.0)):  # opposite: a half turn about +X
+        return np.array([0.0, 1.0, 0.0, 0.0])
+    return R.quat_between(up, np.array([0.0, 1.0, 0.0]))
+
+
+def from_y_up(motion, up) -> "object":
+    """Inverse of :func:`to_y_up`: a +Y-up take turned back so +Y becomes ``up`` (3,). +Y: unchanged."""
+    if np.allclose(np.asarray(up, np.float64), (0.0, 1.0, 0.0)):
+        return motion
+    return _turn_world(motion, R.quat_conjugate(up_turn(up)))
+
+
 def to_y_up(motion, up) -> "object":
     """The take turned as a whole so that its up direction ``up`` (3,) becomes +Y: only the root's
     rotation and position change (a rotation of the world). +Y already: unchanged."""
-    up = np.asarray(up, np.float64)
-    if np.allclose(up, (0.0, 1.0, 0.0)):
+    if np.allclose(np.asarray(up, np.float64), (0.0, 1.0, 0.0)):
         return motion
-    turn = R.quat_between(up, np.array([0.0, 1.0, 0.0]))
-    if np.allclose(up, (0.0, -1.0, 0.0)):  # opposite: a half turn about +X
-        turn = np.array([0.0, 1.0, 0.0, 0.0])
+    return _turn_world(motion, up_turn(up))
+
+
+def _turn_world(motion, turn):
+    """The take rotated as a whole by the unit quaternion ``turn`` (4,) about the origin."""
     rotations = motion.rotations.copy()
     positions = motion.positions.copy()
     rotations[:, 0] = R.quat_mul(np.broadcast_to(turn, rotations[:, 0].shape), rotations[:, 0])

@@ -105,7 +105,9 @@ def benchmark_baselines(
     For each n in ``lengths``: 10 context frames, start keyframe = frame 9, target = frame 10 + n,
     scored frames 10 .. 10+n-1; local positions are the root trajectory plus the training offsets,
     as in the official code.
-    Returns {"n_windows": N, "zerov": {"l2q"|"l2p"|"npss": {"5": value, ...}}, "interp": {...}}.
+    Returns the nesting of :func:`evaluate_protocol`: {"n_windows": N, "samples": 1, "lengths": {"5":
+    {"zerov": {"l2q", "l2p", "npss"}, "interp": {...}}, ...}, "units": {metric: unit}, "settings": {method:
+    what it is}}; print it with :func:`format_protocol_table` (what :func:`print_benchmark_table` does).
     """
     rotations = _as_f64(test_windows.rotations)
     roots = _as_f64(test_windows.positions)[:, :, :1, :]
@@ -115,9 +117,7 @@ def benchmark_baselines(
     local_positions = np.concatenate(
         [roots, np.broadcast_to(offsets, (num_windows, num_frames, num_joints - 1, 3))], axis=2
     )
-    results = {"n_windows": int(num_windows), "zerov": {}, "interp": {}}
-    for name in ("zerov", "interp"):
-        results[name] = {"l2q": {}, "l2p": {}, "npss": {}}
+    results = {}
     for n in lengths:
         target = CONTEXT_FRAMES + n
         if target >= num_frames:
@@ -133,33 +133,30 @@ def benchmark_baselines(
                 start_r, start_p, rotations[:, target], local_positions[:, target], n
             ),
         }
+        entry = {}
         for name, (pred_r, pred_p) in predictions.items():
             q, p = forward_kinematics(pred_r, pred_p, parents)
-            results[name]["l2q"][str(n)] = metrics.l2q(q, gt_q)
-            results[name]["l2p"][str(n)] = metrics.l2p(p, gt_p, train_stats.mean, train_stats.std)
-            results[name]["npss"][str(n)] = metrics.npss(q, gt_q)
-    return results
+            entry[name] = {"l2q": metrics.l2q(q, gt_q), "l2p": metrics.l2p(p, gt_p, train_stats.mean, train_stats.std),
+                           "npss": metrics.npss(q, gt_q)}
+        results[str(n)] = entry
+    units = _units(metrics.LAFAN1_METRES_PER_UNIT)
+    return {
+        "n_windows": int(num_windows),
+        "samples": 1,
+        "lengths": results,
+        "units": {k: units[k] for k in ("l2q", "l2p", "npss", "data_positions")},
+        "settings": dict(BENCHMARK_SETTINGS),
+    }
+
+
+BENCHMARK_SETTINGS = {"zerov": "frame 9 held (official)", "interp": "slerp/lerp 9..10+n (official)"}
 
 
 def format_benchmark_table(results: Mapping) -> str:
-    """The benchmark results as the official script prints them (three small tables)."""
-    lengths = list(results["zerov"]["l2q"].keys())
-    rows = (("Zero-V", "zerov"), ("Interp.", "interp"))
-    header = "{0: <16} |".format("Lengths") + "".join(f" {int(n):6d} |" for n in lengths)
-    lines = [f"LAFAN1 benchmark on {results['n_windows']} test windows", ""]
-    for title, key, fmt in (
-        ("=== Global quat losses ===", "l2q", "{:6.2f}"),
-        ("=== Global pos losses ===", "l2p", "{:6.4f}"),
-        ("=== NPSS on global quats ===", "npss", "{:6.4f}"),
-    ):
-        lines += [title, header]
-        for label, name in rows:
-            values = results[name][key]
-            lines.append(
-                "{0: <16} |".format(label) + "".join(" " + fmt.format(values[n]) + " |" for n in lengths)
-            )
-        lines.append("")
-    return "\n".join(lines)
+    """The official benchmark in the table layout of :func:`format_protocol_table` (one row per length and
+    method, one column per metric with its unit)."""
+    return format_protocol_table(results, title=f"LAFAN1 benchmark (official L2Q / L2P / NPSS, float64) on "
+                                                f"{results['n_windows']} test windows")
 
 
 def print_benchmark_table(results: Mapping, file=None) -> None:
@@ -336,8 +333,9 @@ def evaluate_protocol(
     }
 
 
-def format_protocol_table(results: Mapping) -> str:
-    """One row per (length, method), one column per metric, units in the header."""
+def format_protocol_table(results: Mapping, title: str | None = None) -> str:
+    """One row per (length, method), one column per metric, units in the header (4 decimals), a units
+    legend below. ``results``: as :func:`evaluate_protocol` or :func:`benchmark_baselines` return them."""
     units = results.get("units", {})
     short = {"m": "m", "cm/frame": "cm/f", "cm": "cm"}
     cols = [(k, f"{k} ({short.get(units.get(k, '').split(' ')[0], '-')})") for k in METRIC_KEYS if k in _first_row(results)]
@@ -345,11 +343,9 @@ def format_protocol_table(results: Mapping) -> str:
     width = max([12] + [len(n) for n in settings])
     setting_width = max([7] + [len(v) for v in settings.values()])
     header = f"{'L':>3} {'method':<{width}} {'setting':<{setting_width}}" + "".join(f" {title:>15}" for _, title in cols)
-    lines = [
-        f"Protocol on {results['n_windows']} windows, {results['samples']} samples per window",
-        header,
-        "-" * len(header),
-    ]
+    if title is None:
+        title = f"Protocol on {results['n_windows']} windows, {results['samples']} samples per window"
+    lines = [title, header, "-" * len(header)]
     for length, entry in results["lengths"].items():
         for name, values in entry.items():
             if name == "ground_truth":
@@ -364,6 +360,7 @@ def format_protocol_table(results: Mapping) -> str:
                 f" {gt['foot_slide']:>15.4f}" if k == "foot_slide" else f" {'':>15}" for k, _ in cols
             )
             lines.append(f"{length:>3} {'ground_truth':<{width}} {'':<{setting_width}}" + cells)
+    lines.append("units: " + "; ".join(f"{k} {units[k]}" for k, _ in cols if k in units))
     return "\n".join(lines)
 
 

@@ -14,9 +14,12 @@ Everything here works on numpy (data pipeline) and jax.numpy (model) arrays alik
 """
 from __future__ import annotations
 
-import numpy as np
 import jax
 import jax.numpy as jnp
+import numpy as np
+
+from stitchjax import phase
+from stitchjax import skeleton as skel
 
 __all__ = [
     "state_dim", "state_vector", "split_state", "root_velocities", "offset_features",
@@ -101,8 +104,6 @@ def prepare_dataset(windows, stats, config, phase_labels=None) -> dict:
     stats: the training statistics (unused beyond validation; positions are scaled by
     ``config.data.position_scale``, kept fixed so checkpoints do not depend on the data subset).
     """
-    from stitchjax import skeleton as skel
-
     parents = tuple(config.data.parents)
     if tuple(windows.skeleton.parents) != parents:
         raise DatasetError(
@@ -116,8 +117,6 @@ def prepare_dataset(windows, stats, config, phase_labels=None) -> dict:
     positions = np.asarray(windows.positions, np.float64)
     _, global_positions = skel.forward_kinematics(rotations, positions, parents)
     if phase_labels is None:
-        from stitchjax import phase
-
         phase_labels = phase.phase_labels(contacts, windows.fps, config)
     phase_labels = np.asarray(phase_labels, np.float32)
     phase_labels = phase_labels.reshape(phase_labels.shape[:2] + (-1,))

@@ -51,9 +51,8 @@ import numpy as np
 from stitchjax import cache
 from stitchjax import rotations as R
 from stitchjax.skeleton import Skeleton, forward_kinematics
-from stitchjax.windows import (FACING_FRAME, Stats, Windows, center_and_face, center_and_face_global,
-                               combine_moments, contacts_from_displacement, moments,
-                               stats_from_moments, window_indices, window_starts)
+from stitchjax.windows import (FACING_FRAME, Stats, Windows, clip_moments, clip_windows, clips_statistics,
+                               concatenate_clips)
 
 __all__ = [
     "H36MNotFoundError", "H36M_SKELETON", "H36M_FEET", "FEET", "JOINT_NAMES", "PARENTS",
@@ -189,40 +188,18 @@ def _level(rotations, positions):
     return rotations, positions
 
 
-def _file_windows(path, window, offset, frame, what):
-    rot, pos = read_file(path)
-    out = {"name": f"{pathlib.Path(path).parent.name}/{pathlib.Path(path).name}",
-           "starts": window_starts(len(rot), window, offset)}
-    if len(out["starts"]) == 0:
-        return out
-    idx = window_indices(out["starts"], window)
-    parents = H36M_SKELETON.parents
-    _, raw_global = forward_kinematics(rot, pos, parents)
-    if what == "moments":
-        gpos = center_and_face_global(raw_global[idx], pos[idx, 0], rot[idx, 0], frame, FORWARD_AXIS)
-        out["moments"] = moments(gpos.reshape(-1, gpos.shape[-2] * 3))
-        out["first_local_positions"] = center_and_face(
-            rot[idx[:1]], pos[idx[:1]], parents, frame, FORWARD_AXIS)[1][0, 0]
-        return out
-    feet = raw_global[:, list(H36M_FEET)]
-    step = np.sum((feet[1:] - feet[:-1]) ** 2, axis=-1)
-    out["contacts"] = contacts_from_displacement(step[idx[:, :-1]])
-    out["rotations"], out["positions"] = center_and_face(rot[idx], pos[idx], parents, frame,
-                                                         FORWARD_AXIS)
-    return out
+def _source_name(path) -> str:
+    """``<subject>/<file>`` of a file, as the windows' sources name it."""
+    return f"{pathlib.Path(path).parent.name}/{pathlib.Path(path).name}"
 
 
 def _build(files, window, offset, frame=FACING_FRAME) -> dict:
-    results = [_file_windows(f, window, offset, frame, "windows") for f in files]
-    kept = [r for r in results if len(r["starts"])]
-    j = H36M_SKELETON.num_joints
-
-    def cat(key, shape):
-        return np.concatenate([r[key] for r in kept]) if kept else np.zeros((0, window) + shape)
-
-    return {"rotations": cat("rotations", (j, 4)), "positions": cat("positions", (j, 3)),
-            "contacts": cat("contacts", (len(H36M_FEET),)),
-            "sources": np.array([f"{r['name']}:{s}" for r in kept for s in r["starts"]], dtype=str)}
+    """The cached arrays of ``files``: rotations, positions, contacts (windows of all files, in order), sources."""
+    clips = [clip_windows(*read_file(f), H36M_SKELETON.parents, window, offset, H36M_FEET, frame, FORWARD_AXIS)
+             for f in files]
+    return {**concatenate_clips(clips),
+            "sources": np.array([f"{_source_name(f)}:{s}" for f, c in zip(files, clips) for s in c["starts"]],
+                                dtype=str)}
 
 
 def load_windows(data_dir, subjects=TRAIN_SUBJECTS, window: int = 50, offset: int = 20,
@@ -234,7 +211,7 @@ def load_windows(data_dir, subjects=TRAIN_SUBJECTS, window: int = 50, offset: in
     subjects = (subjects,) if isinstance(subjects, str) else tuple(subjects)
     files = _files_for(data_dir, subjects)
     params = {"window": int(window), "offset": int(offset), "frame": FACING_FRAME,
-              "subjects": list(subjects), "names": [f"{p.parent.name}/{p.name}" for p in files]}
+              "subjects": list(subjects), "names": [_source_name(p) for p in files]}
     arrays = cache.cached("h36m-windows", files, params, lambda: _build(files, window, offset),
                           cache_dir, _CODE)
     return Windows(arrays["rotations"], arrays["positions"], arrays["contacts"], H36M_SKELETON, FPS,
@@ -256,14 +233,11 @@ def train_statistics(data_dir, subjects=TRAIN_SUBJECTS, window: int = 50, offset
     subjects = (subjects,) if isinstance(subjects, str) else tuple(subjects)
     files = _files_for(data_dir, subjects)
     params = {"window": int(window), "offset": int(offset), "frame": FACING_FRAME,
-              "names": [f"{p.parent.name}/{p.name}" for p in files]}
+              "names": [_source_name(p) for p in files]}
 
     def compute():
-        results = [_file_windows(f, window, offset, FACING_FRAME, "moments") for f in files]
-        kept = [r for r in results if len(r["starts"])]
-        total = (0, 0.0, 0.0)
-        for r in kept:
-            total = combine_moments(total, r["moments"])
-        return dataclasses.asdict(stats_from_moments(total, kept[0]["first_local_positions"]))
+        clips = [clip_moments(*read_file(f), H36M_SKELETON.parents, window, offset, FACING_FRAME, FORWARD_AXIS)
+                 for f in files]
+        return dataclasses.asdict(clips_statistics(clips))
 
     return Stats(**cache.cached("h36m-stats", files, params, compute, cache_dir, _CODE))

@@ -42,16 +42,17 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from stitchjax import bvh_folder, conform
 from stitchjax import rotations as R
 from stitchjax.bvh import Motion
-from stitchjax.skeleton import LAFAN1_FEET, LAFAN1_JOINTS, forward_kinematics
+from stitchjax.skeleton import LAFAN1_FEET, forward_kinematics
 from stitchjax.windows import CONTACT_THRESHOLD, center_and_face, facing_rotation, foot_contacts
 
 __all__ = [
     "InbetweenError", "Model", "load_model", "random_model", "with_matmul_dtype", "inbetween", "inbetween_clip",
     "sample_transitions", "transitions_in_frame", "keyframe_contacts", "model_method",
     "evaluation_method", "stitch_losses", "noise_shape", "window_keyframes", "rollout_details",
-    "inbetween_takes", "conform_take", "check_length",
+    "inbetween_takes", "conform_take", "check_length", "to_model_frame", "from_model_frame",
 ]
 
 CONTACT_HEIGHT = 4.0  # file units (cm): single-frame contact guess, see keyframe_contacts
@@ -76,6 +77,10 @@ class Model:
       feet: joint indices of the contact channels (LAFAN1: LeftFoot, LeftToe, RightFoot, RightToe).
       stats: training statistics as numpy arrays ("mean", "std" (J*3,), "offsets" (J, 3)), may be {}.
       source: where it came from ("<workdir> step <n>" or "random init (seed s)").
+      up_axis: (3,) the training files' up axis (takes are turned from it to +Y for the model, and back).
+      forward_axis: (3,) the root's local forward axis the training windows were faced by (LAFAN1: +Y).
+      unit_scale: centimetres per unit of the training files (takes are scaled by it, and back).
+    The last three come from the checkpoint (``extras["skeleton"]``, :func:`stitchjax.bvh_folder.skeleton_facts`).
     """
 
     config: Any
@@ -85,6 +90,9 @@ class Model:
     feet: tuple
     stats: dict
     source: str
+    up_axis: tuple = (0.0, 1.0, 0.0)
+    forward_axis: tuple = (0.0, 1.0, 0.0)
+    unit_scale: float = 1.0
 
     @property
     def parents(self) -> tuple:
@@ -95,6 +103,11 @@ class Model:
         return len(self.parents)
 
     @property
+    def feet_names(self) -> tuple | None:
+        """Names of the contact joints (None when the joint names are unknown)."""
+        return None if self.joint_names is None else tuple(self.joint_names[j] for j in self.feet)
+
+    @property
     def trained_max_length(self) -> int:
         """Longest transition seen in training (longer ones work but are extrapolation)."""
         return int(self.config.train.max_length)
@@ -103,29 +116,33 @@ class Model:
         return f"Model({self.config.name!r}, {self.num_joints} joints, {self.source})"
 
 
-def _default_joint_names(config) -> tuple | None:
-    if getattr(config.data, "dataset", "lafan1") == "lafan1" and len(config.data.parents) == len(LAFAN1_JOINTS):
-        return tuple(LAFAN1_JOINTS)
+def _default_facts(config) -> dict:
+    """The skeleton facts of a checkpoint saved without them (before they were saved): those of its
+    dataset (LAFAN1 / H36M), or for a BVH folder what its config declares (joint names unknown)."""
+    data = config.data
+    facts = bvh_folder.skeleton_facts(None, data)
+    if facts is not None and len(facts["joint_names"]) == len(data.parents):
+        return facts
+    return {"joint_names": None, "feet": list(LAFAN1_FEET), "up_axis": getattr(data, "up_axis", "") or "+y",
+            "forward_axis": getattr(data, "forward_axis", "") or "+y",
+            "unit_scale": float(getattr(data, "unit_scale", 0.0)) or 1.0}
+
+
+def _facts_fields(config, facts: dict | None) -> dict:
+    """Model fields (joint_names, feet, up_axis, forward_axis, unit_scale) from saved facts, else defaults."""
+    defaults = _default_facts(config)
+    facts = {**defaults, **{k: v for k, v in (facts or {}).items() if v not in (None, "", [])}}
+    names = tuple(facts["joint_names"]) if facts["joint_names"] else None
+    feet = tuple(int(j) for j in facts["feet"])
+    if names is not None and facts.get("feet_names") and [names[j] for j in feet] != list(facts["feet_names"]):
+        raise InbetweenError(f"checkpoint skeleton facts disagree: feet {feet} are {[names[j] for j in feet]}, "
+                             f"saved as {list(facts['feet_names'])}; retrain or fix extras/skeleton")
     try:
-        from stitchjax import h36m
-
-        names = getattr(h36m, "JOINT_NAMES", None) or getattr(h36m, "JOINTS", None)
-        if names is not None and len(names) == len(config.data.parents):
-            return tuple(names)
-    except ImportError:
-        pass
-    return None
-
-
-def _default_feet(config) -> tuple:
-    if getattr(config.data, "dataset", "lafan1") == "h36m":
-        try:
-            from stitchjax import h36m
-
-            return tuple(int(j) for j in h36m.FEET)
-        except (ImportError, AttributeError):
-            pass
-    return tuple(LAFAN1_FEET)
+        up, forward = conform.parse_axis(facts["up_axis"]), conform.parse_axis(facts["forward_axis"])
+    except conform.ConformError as error:
+        raise InbetweenError(f"checkpoint skeleton facts: {error}") from None
+    return {"joint_names": names, "feet": feet, "up_axis": tuple(float(x) for x in up),
+            "forward_axis": tuple(float(x) for x in forward), "unit_scale": float(facts["unit_scale"])}
 
 
 def _resolve_checkpoint(path) -> tuple[pathlib.Path, int | None]:
@@ -195,12 +212,10 @@ def load_model(checkpoint, step: int | None = None) -> Model:
     finally:
         absl_logger.setLevel(level)
     stats = {k: np.asarray(v, np.float64) for k, v in (extras.get("stats") or {}).items()}
-    names = extras.get("joint_names")
-    names = tuple(names) if names else _default_joint_names(config)
+    fields = _facts_fields(config, extras.get("skeleton"))
     params = {"forward": state.params["forward"], "backward": state.params["backward"]}
     phase_params = state.phase_params if config.model.phase_modulation else None
-    return Model(config, params, phase_params, names, _default_feet(config), stats,
-                 f"{workdir} step {int(step)}")
+    return Model(config, params, phase_params, stats=stats, source=f"{workdir} step {int(step)}", **fields)
 
 
 def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None) -> Model:
@@ -212,9 +227,11 @@ def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None
     phase_params = None
     if config.model.phase_modulation:
         phase_params = phase.init_phase_params(jax.random.fold_in(key, 1), features.state_dim(config), config)
-    names = tuple(joint_names) if joint_names is not None else _default_joint_names(config)
+    fields = _facts_fields(config, None)
+    if joint_names is not None:
+        fields["joint_names"] = tuple(joint_names)
     return Model(config, {"forward": params["forward"], "backward": params["backward"]}, phase_params,
-                 names, _default_feet(config), {}, f"random init (seed {seed})")
+                 stats={}, source=f"random init (seed {seed})", **fields)
 
 
 def with_matmul_dtype(model: Model, dtype: str) -> Model:
@@ -328,12 +345,14 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
 # ----------------------------------------------------------------------------- alignment and contacts
 
 
-def _alignment(start_rotations, start_positions, target_rotations, target_positions, parents):
-    """Keyframes (B, J, *) in the model's frame plus the (turn (B, 4), centre (B, 3)) that undo it."""
+def _alignment(start_rotations, start_positions, target_rotations, target_positions, parents,
+               forward_axis=(0.0, 1.0, 0.0)):
+    """Keyframes (B, J, *) in the model's frame plus the (turn (B, 4), centre (B, 3)) that undo it.
+    The start keyframe's root is faced along +X by its local ``forward_axis`` (the model's, as in training)."""
     rot = np.stack([start_rotations, target_rotations], axis=1)  # (B, 2, J, 4): a 2-frame window
     pos = np.stack([start_positions, target_positions], axis=1)
-    aligned_rot, aligned_pos = center_and_face(rot, pos, parents, frame=0)
-    turn = facing_rotation(np.asarray(start_rotations)[:, 0])  # the turn center_and_face applied
+    aligned_rot, aligned_pos = center_and_face(rot, pos, parents, frame=0, forward_axis=forward_axis)
+    turn = facing_rotation(np.asarray(start_rotations)[:, 0], forward_axis)  # the turn center_and_face applied
     centre = 0.5 * (pos[:, 0, 0] + pos[:, 1, 0])
     centre[:, 1] = 0.0
     return aligned_rot, aligned_pos, turn, centre
@@ -385,7 +404,7 @@ def transitions_in_frame(model: Model, start_rotations, start_positions, start_c
             or tr.shape != sr.shape or tp.shape != sp.shape:
         raise InbetweenError(f"keyframes must be rotations (B, {len(parents)}, 4) and positions (B, "
                              f"{len(parents)}, 3); got {sr.shape}, {sp.shape}, {tr.shape}, {tp.shape}")
-    aligned_rot, aligned_pos, turn, centre = _alignment(sr, sp, tr, tp, parents)
+    aligned_rot, aligned_pos, turn, centre = _alignment(sr, sp, tr, tp, parents, model.forward_axis)
     start = {"rotations": aligned_rot[:, 0], "root_position": aligned_pos[:, 0, 0],
              "contacts": np.asarray(start_contacts, np.float64)}
     target = {"rotations": aligned_rot[:, 1], "root_position": aligned_pos[:, 1, 0],
@@ -471,18 +490,33 @@ def check_length(model: Model, length: int, allow_extrapolation: bool = False) -
             f"allow_extrapolation=True (bin/inbetween --allow-extrapolation)")
 
 
-def conform_take(model: Model, motion: Motion, what: str = "the take", scale: float = 1.0) -> Motion:
-    """A take on the model's terms: joints mapped by name onto the model's skeleton (extra joints folded
-    away, missing ones refused), positions times ``scale``, and its bone lengths checked against the model's
-    training skeleton (``stats["offsets"]``) — another scale is refused with the measured ratio and the
-    fix. The frame rate is left alone (see :func:`stitchjax.conform.resample`, anchored at a keyframe)."""
-    from stitchjax import conform
+def to_model_frame(model: Model, motion: Motion, scale: float = 1.0) -> Motion:
+    """A take in the training files' units and up axis -> the model's (cm, +Y up): positions times
+    ``scale * model.unit_scale``, then the world turned so that ``model.up_axis`` becomes +Y. LAFAN1 /
+    H36M models (cm, +Y up) with ``scale`` 1: returned unchanged."""
+    factor = float(scale) * float(model.unit_scale)
+    motion = conform.rescale(motion, factor) if factor != 1.0 else motion
+    return conform.to_y_up(motion, model.up_axis)
 
+
+def from_model_frame(model: Model, motion: Motion, scale: float = 1.0) -> Motion:
+    """Inverse of :func:`to_model_frame` (to float64 rounding): +Y up back to ``model.up_axis``, then
+    positions divided by ``scale * model.unit_scale``."""
+    motion = conform.from_y_up(motion, model.up_axis)
+    factor = float(scale) * float(model.unit_scale)
+    return conform.rescale(motion, 1.0 / factor) if factor != 1.0 else motion
+
+
+def conform_take(model: Model, motion: Motion, what: str = "the take", scale: float = 1.0) -> Motion:
+    """A take on the model's terms: in its units and up axis (:func:`to_model_frame`: positions times
+    ``scale * model.unit_scale``, turned to +Y up), joints mapped by name onto the model's skeleton (extra
+    joints folded away, missing ones refused), and its bone lengths checked against the model's training
+    skeleton (``stats["offsets"]``) — another scale is refused with the measured ratio and the fix. The
+    frame rate is left alone (see :func:`stitchjax.conform.resample`, anchored at a keyframe)."""
     if not isinstance(motion, Motion):
         raise InbetweenError(f"{what} must be a stitchjax.bvh.Motion, got {type(motion).__name__}")
     try:
-        if scale != 1.0:
-            motion = conform.rescale(motion, scale)
+        motion = to_model_frame(model, motion, scale)
         if model.joint_names is not None and (tuple(motion.skeleton.names) != tuple(model.joint_names)
                                               or tuple(motion.skeleton.parents) != model.parents):
             motion = conform.map_joints(motion, model.joint_names, model.parents, what)
@@ -520,21 +554,21 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
                     scale: float = 1.0, allow_extrapolation: bool = False) -> list:
     """Transitions from frame ``start_frame`` of one take to frame ``target_frame`` of another (or the same).
 
-    Both takes are brought onto the model's terms first (:func:`conform_take`: joints by name, units checked;
-    ``scale`` multiplies their positions) and resampled to the model's frame rate, anchored at the keyframe
-    so the keyframes are kept exactly. The target take is then placed: turned by ``turn_degrees`` about the
-    vertical axis through its keyframe's root and moved by ``offset`` (x, y, z; file units, i.e. the takes'
-    units before ``scale``).
+    Both takes are brought onto the model's terms first (:func:`conform_take`: the training files' units and
+    up axis to cm and +Y up, joints by name, units checked; ``scale`` multiplies their positions) and
+    resampled to the model's frame rate, anchored at the keyframe so the keyframes are kept exactly. The
+    target take is then placed: turned by ``turn_degrees`` about the up axis through its keyframe's root
+    and moved by ``offset`` (x, y, z; in the takes' own units and axes, before ``scale``). The result is
+    brought back to the takes' units and up axis (:func:`from_model_frame`; exact for cm, +Y-up models,
+    else to float64 rounding).
     length: generated frames (default: the keyframes' distance in time minus one frame, when both come
       from one take; required otherwise).
     output: "transition" = the start keyframe, L generated frames, the placed target keyframe (L + 2 frames);
       "appended" = the start take's frames 0..start_frame, the L generated frames and the target keyframe;
       "clip" = "appended" followed by the rest of the (placed) target take.
     Returns ``num_samples`` Motions at the model's frame rate on the model's skeleton (the takes' own
-    skeleton and channel layout when their joints already match), positions in the takes' units.
+    skeleton and channel layout when their joints already match), positions in the takes' units and axes.
     """
-    from stitchjax import conform
-
     if output not in OUTPUTS:
         raise InbetweenError(f"output {output!r}: use one of {', '.join(OUTPUTS)}")
     if not np.isfinite(scale) or scale <= 0:
@@ -564,8 +598,12 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     try:
         start_take, a = conform.resample(start_take, fps, int(start_frame))
         target_take, b = conform.resample(target_take, fps, int(target_frame))
-        if np.any(np.asarray(offset, np.float64) != 0) or turn_degrees:
-            target_take = conform.place(target_take, np.asarray(offset, np.float64) * scale, turn_degrees, pivot=b)
+        offset = np.asarray(offset, np.float64)
+        if offset.shape != (3,):
+            raise conform.ConformError(f"offset must be 3 numbers (x, y, z), got shape {offset.shape}")
+        if np.any(offset != 0) or turn_degrees:
+            shift = R.quat_rotate(conform.up_turn(model.up_axis), offset)  # the takes' axes -> +Y up
+            target_take = conform.place(target_take, shift * scale * model.unit_scale, turn_degrees, pivot=b)
     except conform.ConformError as error:
         raise InbetweenError(str(error)) from None
     start_contacts = _neighbour_contacts(model, start_take, a, -1)
@@ -581,7 +619,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
             motion = start_take.with_frames(
                 np.concatenate([start_take.rotations[:a], s.rotations[:-1], target_take.rotations[tail]]),
                 np.concatenate([start_take.positions[:a], s.positions[:-1], target_take.positions[tail]]))
-        out.append(conform.rescale(motion, 1.0 / scale) if scale != 1.0 else motion)
+        out.append(from_model_frame(model, motion, scale))
     return out
 
 
@@ -688,7 +726,7 @@ def window_keyframes(model: Model, windows, start: int, length: int) -> tuple:
         raise InbetweenError(f"keyframes {start} and {target} are outside windows of {windows.rotations.shape[1]} frames")
     rot, pos = np.asarray(windows.rotations, np.float64), np.asarray(windows.positions, np.float64)
     aligned_rot, aligned_pos, _, _ = _alignment(rot[:, start], pos[:, start], rot[:, target], pos[:, target],
-                                                model.parents)
+                                                model.parents, model.forward_axis)
     contacts = np.asarray(windows.contacts, np.float64)
     start_kf = {"rotations": aligned_rot[:, 0], "root_position": aligned_pos[:, 0, 0], "contacts": contacts[:, start]}
     target_kf = {"rotations": aligned_rot[:, 1], "root_position": aligned_pos[:, 1, 0],

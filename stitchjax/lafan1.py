@@ -13,17 +13,19 @@ on disk (see :mod:`stitchjax.cache`), keyed by the files' contents.
 from __future__ import annotations
 
 import dataclasses
+import multiprocessing
 import os
 import pathlib
 import re
+import sys
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from stitchjax import cache
-from stitchjax.skeleton import LAFAN1_FEET, forward_kinematics
-from stitchjax.windows import (FACING_FRAME, Stats, Windows, center_and_face, center_and_face_global,
-                               combine_moments, contacts_from_displacement, moments,
-                               stats_from_moments, window_indices, window_starts)
+from stitchjax import bvh, cache
+from stitchjax.skeleton import LAFAN1_FEET, Skeleton
+from stitchjax.windows import (FACING_FRAME, Stats, Windows, clip_moments, clip_windows, clips_statistics,
+                               concatenate_clips)
 
 __all__ = [
     "LAFAN1NotFoundError", "Stats", "TRAIN_SUBJECTS", "TEST_SUBJECTS", "list_files", "load_windows",
@@ -93,46 +95,21 @@ def _files_for(data_dir, subjects, purpose: str) -> list:
     return files
 
 
-def _load_motion(path):
-    from stitchjax import bvh  # imported here: only a cache miss needs the BVH reader
-    return bvh.load(path)
-
-
 def _file_windows(path, window, offset, feet, frame, what):
-    """Windows of one file. ``what``: "windows" -> dict with rotations, positions, contacts, starts;
-    "moments" -> dict with the moments of the aligned global positions and the first window's
-    first-frame local positions (no windows returned). Both carry skeleton names/parents/offsets, fps.
-    FK runs once over the file (a raw window's FK is a slice of it); alignment touches only the root.
-    """
-    motion = _load_motion(path)
+    """One file's :func:`~stitchjax.windows.clip_windows` (``what="windows"``) or
+    :func:`~stitchjax.windows.clip_moments` (``what="moments"``), with its skeleton's names, parents,
+    offsets, fps and file name."""
+    motion = bvh.load(path)
     sk = motion.skeleton
     out = {"names": sk.names, "parents": sk.parents, "offsets": sk.offsets, "fps": motion.fps,
            "name": pathlib.Path(path).name}
-    starts = window_starts(motion.num_frames, window, offset)
-    out["starts"] = starts
-    if len(starts) == 0:
-        return out
-    idx = window_indices(starts, window)
-    _, raw_global = forward_kinematics(motion.rotations, motion.positions, sk.parents)
     if what == "moments":
-        gpos = center_and_face_global(raw_global[idx], motion.positions[idx, 0],
-                                      motion.rotations[idx, 0], frame)
-        out["moments"] = moments(gpos.reshape(-1, gpos.shape[-2] * 3))
-        _, first = center_and_face(motion.rotations[idx[:1]], motion.positions[idx[:1]], sk.parents,
-                                   frame)
-        out["first_local_positions"] = first[0, 0]
-        return out
-    feet_pos = raw_global[:, list(feet)]
-    step = np.sum((feet_pos[1:] - feet_pos[:-1]) ** 2, axis=-1)  # (T-1, C) squared displacements
-    out["contacts"] = contacts_from_displacement(step[idx[:, :-1]])
-    out["rotations"], out["positions"] = center_and_face(
-        motion.rotations[idx], motion.positions[idx], sk.parents, frame)
-    return out
+        return {**out, **clip_moments(motion.rotations, motion.positions, sk.parents, window, offset, frame)}
+    return {**out, **clip_windows(motion.rotations, motion.positions, sk.parents, window, offset, feet, frame)}
 
 
 def _jax_backend_started() -> bool:
     """True when JAX may be running threads (forking then is unsafe); False when it cannot be."""
-    import sys
     if "jax" not in sys.modules:
         return False
     try:
@@ -148,8 +125,6 @@ def _map_files(files, *args, workers=None):
     if workers is None:
         workers = min(len(files), os.cpu_count() or 1)
     if workers > 1 and not _jax_backend_started():
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
         try:
             context = multiprocessing.get_context("fork")
         except ValueError:
@@ -180,19 +155,11 @@ def build_windows(files, window: int, offset: int, feet=LAFAN1_FEET, frame: int 
         raise ValueError("no files given")
     results = _map_files(files, window, offset, tuple(feet), frame, "windows", workers=workers)
     _check_same_skeleton(results, files)
-    from stitchjax.skeleton import Skeleton
     first = results[0]
     skeleton = Skeleton(first["names"], first["parents"], first["offsets"])
-    kept = [r for r in results if len(r["starts"])]
-    j = skeleton.num_joints
-
-    def cat(key, shape):
-        return (np.concatenate([r[key] for r in kept]) if kept
-                else np.zeros((0, window) + shape))
-
-    sources = [f"{r['name']}:{s}" for r in kept for s in r["starts"]]
-    return Windows(cat("rotations", (j, 4)), cat("positions", (j, 3)), cat("contacts", (len(feet),)),
-                   skeleton, first["fps"], sources)
+    arrays = concatenate_clips(results)
+    sources = [f"{r['name']}:{s}" for r in results for s in r["starts"]]
+    return Windows(arrays["rotations"], arrays["positions"], arrays["contacts"], skeleton, first["fps"], sources)
 
 
 def build_statistics(files, window: int = TRAIN_WINDOW, offset: int = TRAIN_OFFSET,
@@ -203,13 +170,9 @@ def build_statistics(files, window: int = TRAIN_WINDOW, offset: int = TRAIN_OFFS
         raise ValueError("no files given")
     results = _map_files(files, window, offset, LAFAN1_FEET, frame, "moments", workers=workers)
     _check_same_skeleton(results, files)
-    kept = [r for r in results if len(r["starts"])]
-    if not kept:
+    if not any(len(r["starts"]) for r in results):
         raise ValueError(f"no file is longer than {window} frames: no training windows")
-    total = (0, 0.0, 0.0)
-    for r in kept:
-        total = combine_moments(total, r["moments"])
-    return stats_from_moments(total, kept[0]["first_local_positions"])
+    return clips_statistics(results)
 
 
 def _windows_to_arrays(w: Windows) -> dict:
@@ -220,7 +183,6 @@ def _windows_to_arrays(w: Windows) -> dict:
 
 
 def _arrays_to_windows(a: dict) -> Windows:
-    from stitchjax.skeleton import Skeleton
     skeleton = Skeleton(tuple(a["names"].tolist()), tuple(a["parents"].tolist()), a["offsets"])
     return Windows(a["rotations"], a["positions"], a["contacts"], skeleton, float(a["fps"]),
                   a["sources"].tolist())

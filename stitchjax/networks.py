@@ -32,14 +32,19 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
+from stitchjax import features
+from stitchjax.config import CHOICES
+
 __all__ = [
     "MATMUL_DTYPES", "matmul", "kernel_matmul", "Dense", "LSTMCell", "MLP", "MoEDense", "Generator",
     "Posterior", "LatentMLP", "decode", "sample_latent", "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry", "blend_gaussians",
     "disc_feature_dim", "phase_dim", "generator_input_dims",
 ]
 
-_ACTIVATIONS = {"elu": nn.elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
-                "leaky_relu": lambda x: nn.leaky_relu(x, 0.2), "tanh": jnp.tanh}
+_ACTIVATION_FUNCTIONS = {"elu": nn.elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
+                         "leaky_relu": lambda x: nn.leaky_relu(x, 0.2), "tanh": jnp.tanh}
+# The allowed names are config.CHOICES' (one list); every one of them must have a function here.
+_ACTIVATIONS = {name: _ACTIVATION_FUNCTIONS[name] for name in CHOICES[("model", "activation")]}
 
 
 def activation_fn(name: str):
@@ -49,7 +54,7 @@ def activation_fn(name: str):
         raise ValueError(f"unknown activation {name!r}; use one of {', '.join(_ACTIVATIONS)}") from None
 
 
-MATMUL_DTYPES = {"float32": jnp.float32, "bfloat16": jnp.bfloat16}
+MATMUL_DTYPES = {name: jnp.dtype(name) for name in CHOICES[("model", "matmul_dtype")]}
 
 
 def matmul(x, kernel, dtype: str = "float32"):
@@ -385,8 +390,6 @@ def disc_feature_dim(config) -> int:
 
 def generator_input_dims(config) -> dict:
     """Sizes of the generator's per-step inputs (one example)."""
-    from stitchjax import features
-
     s = features.state_dim(config)
     offset = config.data.num_joints * 4 + 3 + (1 if config.model.time_to_target_input else 0)
     return {"state": s, "target": s, "offset": offset, "phase": phase_dim(config),

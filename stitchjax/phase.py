@@ -15,9 +15,8 @@ whole clip and slicing it gives better labels near window borders than labelling
 The phase network (``PhaseNetwork``) maps the per-frame character state (``features.state_vector``,
 size J*4 + 7) to the P = 2*C phase features; ``pretrain_phase`` fits it to the labels with Adam.
 
-Settings come from ``config.phase`` (a ``PhaseConfig``) or a ``PhaseConfig`` itself, by the field
-names of ``PhaseSettings`` below; missing fields take the defaults there and keyword arguments
-override both.
+Settings are the ``phase`` section of the config (``stitchjax.config.PhaseConfig``): functions take a
+``Config``, a ``PhaseConfig`` or None (the defaults), and keyword arguments override single fields.
 """
 from __future__ import annotations
 
@@ -32,6 +31,8 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
+from stitchjax.config import PhaseConfig
+
 
 class PhaseError(ValueError):
     """Bad input to a phase function (shape, fps or settings)."""
@@ -41,30 +42,12 @@ class PhaseError(ValueError):
 # settings
 
 
-@dataclasses.dataclass(frozen=True)
-class PhaseSettings:
-    """Every knob of this module, with its default (used where the config lacks the field)."""
-
-    # labelling
-    window_seconds: float = 1.0  # half width of the fit window: +-1 s holds >= 1 period for F >= 0.5 Hz
-    min_frequency: float = 0.25  # Hz, lowest frequency of the grid (DESIGN.md section 5)
-    max_frequency: float = 4.0  # Hz, highest frequency of the grid (DESIGN.md section 5)
-    num_frequencies: int = 31  # grid step 0.125 Hz: finer than the ~0.5 Hz a 2 s window resolves
-    smoothing_seconds: float = 0.05  # Gaussian sigma on the 0/1 contacts: removes 1-2 frame flicker, keeps 2 Hz
-    ridge: float = 1.0  # L2 penalty on (a, b): keeps near-degenerate low-frequency fits finite
-    # network and pretraining
-    hidden_dim: int = 128  # width of each hidden layer
-    num_layers: int = 2  # hidden layers (ELU)
-    steps: int = 5000  # Adam steps of pretraining
-    batch_size: int = 512  # frames per minibatch
-    learning_rate: float = 1e-3  # Adam learning rate
+_FIELDS = tuple(f.name for f in dataclasses.fields(PhaseConfig))
 
 
-_FIELDS = tuple(f.name for f in dataclasses.fields(PhaseSettings))
-
-
-def phase_settings(config: Any = None, **overrides: Any) -> PhaseSettings:
-    """Settings from a ``Config`` (uses ``.phase``), a ``PhaseConfig``, or None, plus overrides."""
+def phase_settings(config: Any = None, **overrides: Any) -> PhaseConfig:
+    """Settings from a ``Config`` (uses ``.phase``), a ``PhaseConfig``, or None (the defaults), plus
+    keyword overrides; checked."""
     source = getattr(config, "phase", config)
     values = {}
     for name in _FIELDS:
@@ -74,7 +57,7 @@ def phase_settings(config: Any = None, **overrides: Any) -> PhaseSettings:
     if unknown:
         raise PhaseError(f"unknown phase setting(s) {sorted(unknown)}; known: {list(_FIELDS)}")
     values.update(overrides)
-    settings = PhaseSettings(**values)
+    settings = PhaseConfig(**values)
     if not 0 < settings.min_frequency <= settings.max_frequency:
         raise PhaseError(
             f"need 0 < min_frequency <= max_frequency, got {settings.min_frequency}, {settings.max_frequency}"
@@ -84,7 +67,7 @@ def phase_settings(config: Any = None, **overrides: Any) -> PhaseSettings:
     return settings
 
 
-def frequency_grid(settings: PhaseSettings) -> np.ndarray:
+def frequency_grid(settings: PhaseConfig) -> np.ndarray:
     """The candidate frequencies in Hz, (num_frequencies,)."""
     return np.linspace(settings.min_frequency, settings.max_frequency, settings.num_frequencies)
 
@@ -191,7 +174,7 @@ def _dense_operators(num_frames: int, fps: float, half: int, freqs: tuple, ridge
     return to_xty, to_coef
 
 
-def _fit_rows(y: np.ndarray, fps: float, settings: PhaseSettings, freqs: np.ndarray):
+def _fit_rows(y: np.ndarray, fps: float, settings: PhaseConfig, freqs: np.ndarray):
     """Fit every frame of (R, T) raw contact rows; returns (a, b, B, F) each (R, T)."""
     num_rows, num_frames = y.shape
     half = max(1, int(round(settings.window_seconds * fps)))

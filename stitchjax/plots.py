@@ -1,4 +1,5 @@
-"""Figures for motions: stick figures, filmstrips, root trajectories, error over time, GIFs.
+"""Figures for motions: stick figures, filmstrips, root trajectories, error over time, GIFs; and a
+training run's loss curves.
 
 Everything takes FK *global* positions (file units, Y-up) and the skeleton's ``parents`` tuple, draws
 on matplotlib's non-interactive Agg canvas (no pyplot, no display), and returns the ``matplotlib.figure.Figure``; pass
@@ -15,6 +16,7 @@ the target keyframe, other frames (context kept from the file) in light grey.
 """
 from __future__ import annotations
 
+import math
 import os
 import pathlib
 from typing import Mapping, Sequence
@@ -27,6 +29,7 @@ from matplotlib.figure import Figure
 __all__ = [
     "horizontal_axis", "project", "draw_skeleton", "stick_figure", "filmstrip",
     "root_trajectories", "error_over_time", "per_frame_error", "animate", "frame_colors",
+    "loss_curves",
 ]
 
 KEYFRAME_COLOR = "black"
@@ -404,3 +407,40 @@ def animate(motions, parents, path, *, fps: float = 30.0, keyframes: Sequence[in
     path.parent.mkdir(parents=True, exist_ok=True)
     anim.save(str(path), writer=PillowWriter(fps=max(1, int(round(fps)))), dpi=dpi)
     return path
+
+
+# -------------------------------------------------------------------------------------- training
+
+
+def loss_curves(records: Sequence[Mapping[str, float]], *, dpi: int = 90, path=None) -> Figure:
+    """One panel per loss term against step, four panels a row (3.6 x 2.4 inches each).
+
+    records: the metrics.jsonl records (dicts with "step" and the logged terms). Per-direction /
+    per-discriminator parts ("fk_forward", "adv_d_short", ...) share their term's panel.
+    """
+    skip = {"step", "windows_per_s", "time_s", "epoch"}
+    suffixes = ("_forward", "_backward", "_short", "_long")
+    names = [n for n in records[0] if n not in skip] if records else []
+    panels = {n: [] for n in names if not n.endswith(suffixes) or n.rsplit("_", 1)[0] not in names}
+    for n in names:
+        if n not in panels:
+            panels[n.rsplit("_", 1)[0]].append(n)
+    cols = 4
+    rows = max(1, math.ceil(len(panels) / cols))
+    fig = _new_figure((3.6 * cols, 2.4 * rows), 100)  # laid out at 100 dpi (matplotlib's default), drawn at `dpi`
+    axes = fig.subplots(rows, cols, squeeze=False)
+    steps = [r["step"] for r in records]
+    for ax, (name, parts) in zip(axes.flat, panels.items()):
+        ax.plot(steps, [r.get(name, np.nan) for r in records], lw=1.4, label=name)
+        for part in parts:
+            ax.plot(steps, [r.get(part, np.nan) for r in records], lw=0.8, alpha=0.7, label=part)
+        if parts:
+            ax.legend(fontsize=6)
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("step", fontsize=8)
+        ax.tick_params(labelsize=7)
+    for ax in list(axes.flat)[len(panels):]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.set_dpi(dpi)
+    return _finish(fig, path)

@@ -37,6 +37,7 @@ import jax.numpy as jnp
 
 from stitchjax import features as F
 from stitchjax import networks
+from stitchjax import phase as phase_lib
 from stitchjax import rotations as R
 from stitchjax import scan_gradients
 from stitchjax import skeleton as skel
@@ -82,8 +83,6 @@ def interpolation_weight(config, frame_number, frames_in_direction, length):
 def _phase(config, phase_params, state):
     if not config.model.phase_modulation or phase_params is None:
         return jnp.zeros(state.shape[:-1] + (networks.phase_dim(config),), state.dtype)
-    from stitchjax import phase as phase_lib
-
     if config.model.stop_phase_gradient:
         state = jax.lax.stop_gradient(state)
     return phase_lib.phase_features(phase_params, state)
@@ -99,8 +98,11 @@ def _step(params, phase_params, config, carry, current, target, distance, gamma,
     then the fourth output holds the inputs of its kernel matmuls (else None).
     """
     data = config.data
-    state = F.state_vector(current["rotations"], current["velocity"], current["contacts"])
-    target_state = F.state_vector(target["rotations"], target["velocity"], target["contacts"])
+    contacts, target_contacts = current["contacts"], target["contacts"]
+    if not config.model.contact_input_gradient:
+        contacts, target_contacts = jax.lax.stop_gradient(contacts), jax.lax.stop_gradient(target_contacts)
+    state = F.state_vector(current["rotations"], current["velocity"], contacts)
+    target_state = F.state_vector(target["rotations"], target["velocity"], target_contacts)
     offset = F.offset_features(current["rotations"], current["root"], target["rotations"], target["root"],
                                data.position_scale)
     if config.model.time_to_target_input:

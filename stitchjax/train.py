@@ -13,51 +13,40 @@ Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `tr
   discriminators with separate AdamW optimisers. `length` (the transition length) is a traced int32, so
   the progressive schedule never recompiles.
 - `transition_length(step, steps_per_epoch, train_config)`: 5 -> max_length, +1 every 2 epochs.
-- `train(config, workdir, ...)`: phase pretraining, resume, the loop (progress bar, metrics JSON lines,
-  periodic checkpoints, NaN guard, Ctrl-C / SIGTERM save), then report.md and loss_curves.png.
+- `train(config, workdir, ...)`: `restore_or_init` (resume from the newest good checkpoint, or pretrain the
+  phase network and initialise), `run_loop` (progress bar, metrics JSON lines, periodic checkpoints, NaN
+  guard, Ctrl-C / SIGTERM save), then `finish` (report.md and loss_curves.png).
 
-Parallelism (the same code runs on 1 CPU, 1 GPU, several GPUs or a TPU slice):
-  A `Mesh` over all devices with axes ("hosts", "devices"): the batch is sharded over both axes (data
-  parallelism), params and optimiser states are replicated, and XLA inserts the gradient all-reduce. The
-  training set is sharded over "hosts" and replicated over the devices of a host; inside `shard_map` each
-  device gathers its own slice of the batch from its host's windows, so no window crosses hosts.
-  Within one process the batch indices are drawn from one key and sliced per device, so the data order
-  (and the result, up to float summation order) does not depend on the number of devices.
-Multi-process (several hosts, e.g. a TPU pod slice or a multi-node GPU job):
-  Run the same command on every host. `bin/train --distributed` (or any of the environment variables
-  JAX_COORDINATOR_ADDRESS / JAX_NUM_PROCESSES / JAX_PROCESS_ID, or a cluster jax detects itself such as
-  SLURM or Cloud TPU) calls `jax.distributed.initialize()` before anything else touches jax. Each process
-  then keeps windows i with i % process_count == process_index (truncated to the same count on every host),
-  draws its share of every batch from them, and process 0 alone writes metrics, the report and the
-  progress bar; orbax coordinates the checkpoint writes of all processes.
+Devices, sharding and multi-host start-up: `stitchjax.parallel` (the same code runs on 1 CPU, 1 GPU, several
+GPUs or a TPU slice). With several processes, process 0 alone writes metrics, the report and the progress
+bar; orbax coordinates the checkpoint writes of all processes.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import json
-import math
 import os
 import pathlib
 import signal
 import sys
 import time
-from typing import Any, Callable
+from typing import Any, Callable, NamedTuple
 
 import flax.struct
 import jax
 import jax.numpy as jnp
 import numpy as np
 import optax
-from jax.sharding import Mesh, NamedSharding
-from jax.sharding import PartitionSpec as P
+from jax.experimental import multihost_utils
+from jax.sharding import Mesh
+from tqdm.auto import tqdm
 
-from stitchjax import checkpoints
+from stitchjax import bvh_folder, checkpoints
 from stitchjax import config as config_lib
+from stitchjax import features, h36m, lafan1, losses, networks, parallel, phase, plots, reporting, sample
 
 GENERATORS = ("forward", "backward")
 DISCRIMINATORS = ("disc_short", "disc_long")
-BATCH_AXES = ("hosts", "devices")
 
 
 class TrainingError(RuntimeError):
@@ -85,109 +74,6 @@ class TrainState(flax.struct.PyTreeNode):
     key: jax.Array
 
 
-# --------------------------------------------------------------------------------------------- devices
-
-
-def make_mesh(devices=None) -> Mesh:
-    """A ("hosts", "devices") mesh over all visible devices (hosts = process count)."""
-    devices = list(jax.devices() if devices is None else devices)
-    num_hosts = len({d.process_index for d in devices})
-    devices = sorted(devices, key=lambda d: (d.process_index, d.id))
-    grid = np.array(devices, dtype=object).reshape(num_hosts, len(devices) // num_hosts)
-    return Mesh(grid, BATCH_AXES)
-
-
-def replicated(mesh: Mesh) -> NamedSharding:
-    return NamedSharding(mesh, P())
-
-
-def maybe_initialize_distributed(force: bool = False) -> bool:
-    """Call `jax.distributed.initialize()` when asked or when the standard env vars say so.
-
-    Must run before any other jax call. Returns True when distributed mode was initialised.
-    """
-    env = ("JAX_COORDINATOR_ADDRESS", "JAX_NUM_PROCESSES", "JAX_PROCESS_ID")
-    if not force and not any(os.environ.get(name) for name in env):
-        return False
-    kwargs = {}
-    for name, key in (("JAX_COORDINATOR_ADDRESS", "coordinator_address"), ("JAX_NUM_PROCESSES", "num_processes"),
-                      ("JAX_PROCESS_ID", "process_id")):
-        text = os.environ.get(name, "").strip()
-        if not text:
-            continue
-        if key != "coordinator_address":
-            try:
-                kwargs[key] = int(text)
-            except ValueError:
-                raise TrainingError(f"{name}={text!r} must be a whole number") from None
-        else:
-            kwargs[key] = text
-    if "num_processes" in kwargs and "process_id" in kwargs \
-            and not 0 <= kwargs["process_id"] < kwargs["num_processes"]:
-        raise TrainingError(f"JAX_PROCESS_ID={kwargs['process_id']} must be in 0..JAX_NUM_PROCESSES-1 "
-                            f"({kwargs['num_processes'] - 1})")
-    jax.distributed.initialize(**kwargs)
-    return True
-
-
-def shard_dataset(dataset: dict, mesh: Mesh) -> dict:
-    """Put this process's windows on its devices: leading axis split over hosts, replicated on devices.
-
-    dataset: dict of numpy arrays with the same leading window count N_local (this process's windows).
-    Every process must pass the same N_local (see `local_windows_slice`).
-    """
-    sharding = NamedSharding(mesh, P("hosts"))
-    num_hosts = mesh.shape["hosts"]
-
-    def put(x):
-        x = np.asarray(x)
-        if x.dtype == np.float64:
-            x = x.astype(np.float32)
-        if num_hosts == 1:
-            return jax.device_put(x, sharding)
-        global_shape = (x.shape[0] * num_hosts,) + x.shape[1:]
-        return jax.make_array_from_process_local_data(sharding, x, global_shape)
-
-    return {name: put(x) for name, x in dataset.items()}
-
-
-def local_windows_slice(num_windows: int) -> slice:
-    """The windows this process trains on: every process_count-th, same count on every process."""
-    count, index = jax.process_count(), jax.process_index()
-    per_process = num_windows // count
-    if per_process == 0:
-        raise TrainingError(f"{num_windows} training windows cannot be split over {count} processes")
-    return slice(index, index + per_process * count, count)
-
-
-def sample_batch(dataset: dict, key: jax.Array, batch_size: int, mesh: Mesh, window: int | None = None) -> dict:
-    """Draw `batch_size` windows uniformly (with replacement) on device; batch sharded over the mesh.
-
-    dataset: dict of (N, T, ...) arrays sharded as by `shard_dataset`. window: keep frames [0, window)
-    (static; None = all). Within one process the indices come from one key and each device takes its
-    slice, so the batch does not depend on the device count.
-    """
-    num_hosts, per_host_devices = mesh.shape["hosts"], mesh.shape["devices"]
-    if batch_size % (num_hosts * per_host_devices):
-        raise TrainingError(
-            f"train.batch_size={batch_size} is not divisible by the {num_hosts * per_host_devices} devices; "
-            "pick a multiple of the device count")
-    host_batch = batch_size // num_hosts
-    device_batch = host_batch // per_host_devices
-
-    def local(key, data):
-        host = jax.lax.axis_index("hosts")
-        device = jax.lax.axis_index("devices")
-        num_local = jax.tree.leaves(data)[0].shape[0]
-        indices = jax.random.randint(jax.random.fold_in(key, host), (host_batch,), 0, num_local)
-        indices = jax.lax.dynamic_slice_in_dim(indices, device * device_batch, device_batch)
-        return jax.tree.map(lambda x: (x[indices] if window is None else x[indices, :window]), data)
-
-    return jax.shard_map(
-        local, mesh=mesh, in_specs=(P(), P("hosts")), out_specs=P(BATCH_AXES), check_vma=False,
-    )(key, dataset)
-
-
 # ------------------------------------------------------------------------------------------ optimisers
 
 
@@ -212,10 +98,8 @@ def create_train_state(config, key: jax.Array, phase_params: Any = None, mesh: M
     phase_params: pretrained phase network params, or None to initialise it randomly (phase.init_phase_params)
     — the value when phase modulation is off, and the structure used for restoring.
     """
-    from stitchjax import networks  # model side, imported late so this module imports without it
-
     optimizer = make_optimizer(config.train)
-    mesh = make_mesh() if mesh is None else mesh
+    mesh = parallel.make_mesh() if mesh is None else mesh
     init_key, phase_key, state_key = jax.random.split(key, 3)
 
     def init(init_key, phase_key, state_key, phase_params):
@@ -232,28 +116,24 @@ def create_train_state(config, key: jax.Array, phase_params: Any = None, mesh: M
             key=state_key,
         )
 
-    return jax.jit(init, out_shardings=replicated(mesh))(init_key, phase_key, state_key, phase_params)
+    return jax.jit(init, out_shardings=parallel.replicated(mesh))(init_key, phase_key, state_key, phase_params)
 
 
 def init_phase_params(config, key: jax.Array) -> Any:
     """Randomly initialised phase network params ({} when the model does not use one)."""
-    from stitchjax import phase
-
     return phase.init_phase_params(key, state_dim(config), config)
 
 
 def state_dim(config) -> int:
-    """Per-frame character state size J*4 + 7 (local quats, root velocity, contacts)."""
-    from stitchjax import features
-
-    return features.state_dim(config) if hasattr(features, "state_dim") else config.data.num_joints * 4 + 7
+    """Per-frame character state size J*4 + 3 + C (local quats, root velocity, contacts)."""
+    return features.state_dim(config)
 
 
 def abstract_train_state(config, mesh: Mesh | None = None) -> TrainState:
     """ShapeDtypeStructs (with replicated shardings) of the train state: the target for `restore`."""
-    mesh = make_mesh() if mesh is None else mesh
+    mesh = parallel.make_mesh() if mesh is None else mesh
     shapes = jax.eval_shape(lambda key: create_train_state(config, key, None, mesh), jax.random.PRNGKey(0))
-    sharding = replicated(mesh)
+    sharding = parallel.replicated(mesh)
     return jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), shapes)
 
 
@@ -265,12 +145,12 @@ def make_sampler(config, mesh: Mesh | None = None, window: int | None = None):
 
     Uses fold_in(key, step) split in 3 (batch, generator noise, discriminator noise), as the update does.
     """
-    mesh = make_mesh() if mesh is None else mesh
+    mesh = parallel.make_mesh() if mesh is None else mesh
     batch_size = config.train.batch_size
 
     def sample(dataset, key, step):
         batch_key = jax.random.split(jax.random.fold_in(key, step), 3)[0]
-        return sample_batch(dataset, batch_key, batch_size, mesh, window)
+        return parallel.sample_batch(dataset, batch_key, batch_size, mesh, window)
 
     return jax.jit(sample)
 
@@ -283,12 +163,10 @@ def make_update_step(config, mesh: Mesh | None = None,
     (inside `generator_loss`, whose third output, when present, is handed to `discriminator_loss`).
     The state is donated: do not use the old state after the call.
     """
-    from stitchjax import losses
-
     takes_kl_scale = generator_loss is None  # the default loss takes the KL warm-up factor
     generator_loss = generator_loss or losses.generator_loss
     discriminator_loss = discriminator_loss or losses.discriminator_loss
-    mesh = make_mesh() if mesh is None else mesh
+    mesh = parallel.make_mesh() if mesh is None else mesh
     optimizer = make_optimizer(config.train)
 
     def update(state: TrainState, batch: dict, length: jax.Array):
@@ -333,7 +211,7 @@ def make_update_step(config, mesh: Mesh | None = None,
                                   disc_opt_state=disc_opt_state)
         return new_state, metrics
 
-    rep = replicated(mesh)
+    rep = parallel.replicated(mesh)
     return jax.jit(update, donate_argnums=(0,), out_shardings=(rep, rep))
 
 
@@ -341,13 +219,13 @@ def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
                     generator_loss: Callable | None = None, discriminator_loss: Callable | None = None):
     """`train_step(state, dataset, length) -> (state, metrics)`: draw the step's batch on device, update.
 
-    dataset: dict of (N, T, ...) arrays from `shard_dataset`. length: int32 transition length (traced).
+    dataset: dict of (N, T, ...) arrays from `parallel.shard_dataset`. length: int32 transition length (traced).
     window: frames per training window the losses see (static; None = the dataset's T). Metrics: the
     generator "loss", "disc_loss", every term of both, "length", gradient norms; float32 scalars.
     Two jitted calls (sampler, then update): keeping the gather out of the update's program was measured
     to make its compilation several times faster on CPU. The state is donated.
     """
-    mesh = make_mesh() if mesh is None else mesh
+    mesh = parallel.make_mesh() if mesh is None else mesh
     sample = make_sampler(config, mesh, window)
     update = make_update_step(config, mesh, generator_loss, discriminator_loss)
 
@@ -380,6 +258,30 @@ def total_steps(steps_per_epoch: int, train_config) -> int:
     return int(train_config.max_steps) if train_config.max_steps > 0 else int(train_config.num_epochs * steps_per_epoch)
 
 
+class RunPlan(NamedTuple):
+    """How long a run goes and when it saves, in steps."""
+
+    steps_per_epoch: int  # N_windows // batch_size, at least 1
+    max_steps: int  # train until this step
+    checkpoint_every: int  # save every this many steps
+
+
+def plan_run(num_windows: int, train_config, max_steps: int | None = None) -> RunPlan:
+    """The `RunPlan` of `num_windows` training windows (max_steps None: `total_steps`).
+
+    Raises TrainingError when train.length_buckets has no bucket for train.max_length.
+    """
+    tc = train_config
+    per_epoch = steps_per_epoch(num_windows, tc.batch_size)
+    max_steps = total_steps(per_epoch, tc) if max_steps is None else int(max_steps)
+    buckets = [int(b) for b in tc.length_buckets or ()]
+    if buckets and max(buckets) < tc.max_length:
+        raise TrainingError(f"train.length_buckets={tuple(buckets)} must include a bucket >= train.max_length="
+                            f"{tc.max_length} (or set train.length_buckets= to mask one full-window step)")
+    checkpoint_every = tc.checkpoint_every_steps or max(1, int(round(tc.checkpoint_every * per_epoch)))
+    return RunPlan(per_epoch, max_steps, checkpoint_every)
+
+
 def bucket_window(length: int, train_config) -> int | None:
     """Static window (frames) for `length` when train.length_buckets is set, else None (full window)."""
     buckets = tuple(sorted(int(b) for b in train_config.length_buckets or ()))
@@ -400,107 +302,11 @@ def check_finite(metrics: dict, step: int) -> None:
                 "last good checkpoint is kept (lower train.learning_rate or check the data, then resume)")
 
 
-# --------------------------------------------------------------------------------------------- logging
-
-
-class MetricsLog:
-    """Appends one JSON object per logged step to WORKDIR/metrics.jsonl (process 0 only)."""
-
-    def __init__(self, path: str | os.PathLike, enabled: bool = True):
-        self.path = pathlib.Path(path)
-        self.enabled = enabled
-
-    def truncate_after(self, step: int) -> None:
-        """Drop records past `step` (left by a run that died after logging them but before saving)."""
-        if not (self.enabled and self.path.is_file()):
-            return
-        kept = [line for line in self.path.read_text().splitlines()
-                if line.strip() and json.loads(line).get("step", 0) <= step]
-        self.path.write_text("".join(line + "\n" for line in kept))
-
-    def write(self, record: dict) -> None:
-        if not self.enabled:
-            return
-        with self.path.open("a") as f:
-            f.write(json.dumps(record) + "\n")
-
-
-def read_metrics(path: str | os.PathLike) -> list[dict]:
-    """The records of a metrics.jsonl file."""
-    path = pathlib.Path(path)
-    if not path.is_file():
-        return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-
-
-def plot_loss_curves(records: list[dict], path: str | os.PathLike) -> None:
-    """One panel per loss term against step (matplotlib, Agg backend).
-
-    Per-direction / per-discriminator parts ("fk_forward", "adv_d_short", ...) share their term's panel.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    skip = {"step", "windows_per_s", "time_s", "epoch"}
-    suffixes = ("_forward", "_backward", "_short", "_long")
-    names = [n for n in records[0] if n not in skip] if records else []
-    panels = {n: [] for n in names if not n.endswith(suffixes) or n.rsplit("_", 1)[0] not in names}
-    for n in names:
-        if n not in panels:
-            panels[n.rsplit("_", 1)[0]].append(n)
-    cols = 4
-    rows = max(1, math.ceil(len(panels) / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 2.4 * rows), squeeze=False)
-    steps = [r["step"] for r in records]
-    for ax, (name, parts) in zip(axes.flat, panels.items()):
-        ax.plot(steps, [r.get(name, np.nan) for r in records], lw=1.4, label=name)
-        for part in parts:
-            ax.plot(steps, [r.get(part, np.nan) for r in records], lw=0.8, alpha=0.7, label=part)
-        if parts:
-            ax.legend(fontsize=6)
-        ax.set_title(name, fontsize=9)
-        ax.set_xlabel("step", fontsize=8)
-        ax.tick_params(labelsize=7)
-    for ax in list(axes.flat)[len(panels):]:
-        ax.axis("off")
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-
-
-def write_report(workdir: pathlib.Path, config_name: str, records: list[dict], summary: dict) -> None:
-    """WORKDIR/report.md: steps, time, throughput, final value of every logged term."""
-    lines = [f"# Training report: {config_name}", "",
-             f"- steps: {summary['step']} (this invocation: {summary['steps_run']}, "
-             f"started at step {summary['start_step']})",
-             f"- wall time (this invocation): {summary['setup_s']:.1f} s setup (data, phase pretraining, "
-             f"init or restore) + {summary['wall_s']:.1f} s training loop, of which first-step compile "
-             f"{summary['compile_s']:.1f} s",
-             f"- throughput: {summary['windows_per_s']:.1f} windows/s; devices: {summary['devices']}",
-             f"- training windows: {summary['num_windows']}; batch {summary['batch_size']}; "
-             f"final transition length {summary['length']}",
-             f"- stopped because: {summary['stop_reason']}", ""]
-    if records:
-        last = records[-1]
-        lines += [f"Loss terms at the first and the last logged step (means over the {summary['log_every']} "
-                  "steps before it):", "", "| term | first logged | final |", "|---|---|---|"]
-        for name in last:
-            if name in ("step", "time_s", "windows_per_s"):
-                continue
-            lines.append(f"| {name} | {records[0].get(name, float('nan')):.5g} | {last[name]:.5g} |")
-    lines += ["", "Loss curves: loss_curves.png; every logged step: metrics.jsonl."]
-    (workdir / "report.md").write_text("\n".join(lines) + "\n")
-
-
 # ---------------------------------------------------------------------------------------------- data
 
 
 def load_training_data(config, data_dir: str | os.PathLike | None):
     """(dataset dict of (N, T, ...) numpy arrays, stats) for config.data; data_dir None = bundled sample."""
-    from stitchjax import features
-
     windows, stats = load_windows_and_stats(config, data_dir)
     dataset = features.prepare_dataset(windows, stats, config)
     return {name: np.asarray(x) for name, x in dataset.items()}, stats
@@ -511,11 +317,7 @@ def load_windows_and_stats(config, data_dir):
     data = config.data
     dataset_name = getattr(data, "dataset", "lafan1")
     if dataset_name == "lafan1":
-        from stitchjax import lafan1
-
         if data_dir is None:
-            from stitchjax import sample
-
             data_dir = sample.sample_dir()
         data_dir = pathlib.Path(data_dir)
         if not data_dir.is_dir():
@@ -525,17 +327,12 @@ def load_windows_and_stats(config, data_dir):
         stats = lafan1.train_statistics(data_dir, data.train_subjects, **kwargs)
         return windows, stats
     if dataset_name == "h36m":
-        from stitchjax import h36m
-
         if data_dir is None:
             raise FileNotFoundError("the h36m config needs --data DIR (the Human3.6M exponential-map folder)")
         windows = h36m.load_windows(data_dir, data.train_subjects, window=data.window, offset=data.offset)
-        stats = h36m.train_statistics(data_dir, data.train_subjects, window=data.window, offset=data.offset) \
-            if hasattr(h36m, "train_statistics") else None
+        stats = h36m.train_statistics(data_dir, data.train_subjects, window=data.window, offset=data.offset)
         return windows, stats
     if dataset_name == "bvh_folder":
-        from stitchjax import bvh_folder
-
         if data_dir is None:
             raise FileNotFoundError("the bvh_folder dataset needs --data DIR (a folder of .bvh / .bvh.gz files)")
         return bvh_folder.load_windows_and_stats(data_dir, data)
@@ -556,13 +353,10 @@ def stats_to_json(stats) -> dict:
 
 
 def pretrain_phase_params(config, dataset: dict, key: jax.Array):
-    """Pretrain the phase network on every frame of the training windows; (params, final_loss)."""
-    from stitchjax import features, phase
-
-    states = features.dataset_states(dataset, config) if hasattr(features, "dataset_states") else None
-    if states is None:
-        raise TrainingError("features.dataset_states is missing: cannot pretrain the phase network")
-    states = np.asarray(states).reshape(-1, np.shape(states)[-1])
+    """Pretrain the phase network on every frame of the training windows (and, with
+    ``phase.include_reversed``, of the same windows played backwards); (params, final_loss)."""
+    states = np.asarray(features.dataset_states(dataset, config))
+    states = states.reshape(-1, states.shape[-1])
     labels = np.asarray(dataset["phase"]).reshape(states.shape[0], -1)
     if config.phase.include_reversed:  # the backward generator's states: time-reversed windows
         reversed_windows = reverse_time(dataset)
@@ -608,8 +402,6 @@ def _set_aside_newer_steps(manager, workdir, restored: int, report) -> None:
                 if report is not None:
                     report(f"warning: moved the broken checkpoint {folder / str(step)} to {target}")
     if jax.process_count() > 1:
-        from jax.experimental import multihost_utils
-
         multihost_utils.sync_global_devices("stitchjax-set-aside-broken-checkpoints")
     manager.reload()
 
@@ -640,6 +432,172 @@ class _StopFlag:
         return False
 
 
+def _check_same_run(config_json: dict, workdir: pathlib.Path, manager) -> None:
+    """Raise TrainingError when the run saved in `workdir` has other data / model / loss / phase settings."""
+    saved_step, saved = _newest_readable_config(workdir)
+    try:  # fields added since that run was saved take their legacy / default value, as when loading it
+        saved = config_lib.to_dict(config_lib.from_dict(saved))
+    except (config_lib.ConfigError, TypeError):
+        pass
+    changed = [section for section in ("data", "model", "loss", "phase")
+               if saved.get(section) != config_json.get(section)]
+    if changed:
+        checkpoints.close(manager)
+        raise TrainingError(
+            f"{workdir} holds a run (step {saved_step}) whose {', '.join(changed)} config differs from this "
+            "one; resume with the same config and overrides (only train.* may change), or use a new --workdir")
+
+
+def _fresh_state(config, dataset: dict, mesh: Mesh) -> TrainState:
+    """Step 0 from train.seed, with the phase network pretrained on `dataset` when the model uses one."""
+    key = jax.random.PRNGKey(config.train.seed)
+    phase_params = None
+    if config.model.phase_modulation:
+        phase_params, phase_loss = pretrain_phase_params(config, dataset, jax.random.fold_in(key, 1))
+        if jax.process_index() == 0:
+            print(f"phase network pretrained: final loss {float(phase_loss):.4g}")
+    return create_train_state(config, key, phase_params, mesh)
+
+
+def restore_or_init(config, config_json: dict, workdir: pathlib.Path, manager, log: reporting.MetricsLog,
+                    dataset: dict, mesh: Mesh) -> tuple[TrainState, int | None]:
+    """(state, restored step or None): the newest checkpoint in `workdir` that restores, else a fresh state.
+
+    On resume, newer checkpoints that do not restore are set aside as `<step>.broken` and metrics past the
+    restored step are dropped. Raises TrainingError when the saved run's config differs (`_check_same_run`)
+    or no checkpoint restores.
+    """
+    latest = manager.latest_step()
+    if latest is None:
+        return _fresh_state(config, dataset, mesh), None
+    _check_same_run(config_json, workdir, manager)
+    is_main = jax.process_index() == 0
+    report = (lambda message: print(message, file=sys.stderr)) if is_main else None
+    try:
+        state, _, _, restored = checkpoints.restore_newest_good(
+            manager, abstract_train_state(config, mesh), report=report)
+    except checkpoints.CheckpointError as error:
+        checkpoints.close(manager)
+        raise TrainingError(str(error)) from None
+    if restored != latest:
+        _set_aside_newer_steps(manager, workdir, restored, report)
+    if is_main:
+        print(f"resuming from step {restored} ({checkpoints.checkpoint_dir(workdir) / str(restored)})",
+              file=sys.stderr)
+    log.truncate_after(int(restored))
+    return state, restored
+
+
+class _Saver:
+    """`saver(step, state)` writes a checkpoint with the run's config and extras; `saver.last`: the last
+    step saved (or restored from), None before any."""
+
+    def __init__(self, manager, config_json: dict, extras: dict, last: int | None):
+        self.manager, self.config_json, self.extras, self.last = manager, config_json, extras, last
+
+    def __call__(self, step: int, state: TrainState) -> None:
+        checkpoints.save(self.manager, step, state, self.config_json, self.extras)
+        self.last = step
+
+
+def _step_for_length(config, mesh: Mesh) -> Callable:
+    """`step_for(length)`: the train step for transition length `length` (one compiled step per window)."""
+    steps: dict = {}
+
+    def step_for(length: int):
+        window = bucket_window(length, config.train)
+        if window not in steps:
+            steps[window] = make_train_step(config, mesh, window)
+        return steps[window]
+
+    return step_for
+
+
+def run_loop(state: TrainState, device_data: dict, step_for: Callable, plan: RunPlan, train_config,
+             log: reporting.MetricsLog, saver: _Saver, bar, t_start: float) -> tuple[TrainState, dict]:
+    """Train from `state.step` to `plan.max_steps`, or until the first SIGINT / SIGTERM.
+
+    Logs the means over each `train.log_every` steps (time_s: seconds since `t_start`), saves every
+    `plan.checkpoint_every` steps (not the last: the caller saves it), advances `bar` (tqdm or None).
+    Returns (state, {"start_step", "step", "length", "stop_reason", "compile_s"}); compile_s: the first
+    step's seconds. Raises NonFiniteLossError at a NaN / inf metric.
+    """
+    tc = train_config
+    start_step = step = int(state.step)
+    stop_reason = "reached max_steps"
+    compile_s = 0.0
+    t_log, windows_since_log = time.perf_counter(), 0
+    length = transition_length(step, plan.steps_per_epoch, tc)
+    interval_sums, interval_count = {}, 0  # metrics are logged as means over the logging interval
+    with _StopFlag() as stop:
+        while step < plan.max_steps:
+            length = transition_length(step, plan.steps_per_epoch, tc)
+            t0 = time.perf_counter()
+            state, metrics = step_for(length)(state, device_data, jnp.int32(length))
+            metrics = jax.device_get(metrics)
+            check_finite(metrics, step + 1)
+            for name, value in metrics.items():
+                interval_sums[name] = interval_sums.get(name, 0.0) + float(value)
+            interval_count += 1
+            if step == start_step:
+                compile_s = time.perf_counter() - t0
+                t_log, windows_since_log = time.perf_counter(), 0
+            else:
+                windows_since_log += tc.batch_size
+            step += 1
+            if step % tc.log_every == 0 or step == plan.max_steps:
+                now = time.perf_counter()
+                rate = windows_since_log / max(now - t_log, 1e-9)
+                record = {"step": step, **{k: v / interval_count for k, v in interval_sums.items()},
+                          "length": int(length), "epoch": step / plan.steps_per_epoch,
+                          "windows_per_s": rate, "time_s": now - t_start}
+                log.write(record)
+                t_log, windows_since_log = now, 0
+                interval_sums, interval_count = {}, 0
+                if bar is not None:
+                    bar.set_postfix(loss=f"{record['loss']:.4g}", L=length, win_s=f"{rate:.0f}")
+            if bar is not None:
+                bar.update(1)
+            if step % plan.checkpoint_every == 0 and step != plan.max_steps:
+                saver(step, state)
+            if stop.requested:
+                stop_reason = f"{stop.requested} received"
+                break
+    return state, {"start_step": start_step, "step": step, "length": int(length), "stop_reason": stop_reason,
+                   "compile_s": compile_s}
+
+
+def _close(bar, manager) -> None:
+    if bar is not None:
+        bar.close()
+    checkpoints.close(manager)
+
+
+def finish(workdir: pathlib.Path, config_name: str, outcome: dict, num_windows: int, train_config,
+           t_begin: float, t_start: float) -> dict:
+    """The run's summary (`outcome` of `run_loop` with timings in seconds since `t_begin` / `t_start`);
+    process 0 adds the final record and writes report.md and loss_curves.png."""
+    wall = time.perf_counter() - t_start
+    timed = max(outcome["step"] - outcome["start_step"] - 1, 0)
+    summary = {
+        "step": outcome["step"], "start_step": outcome["start_step"],
+        "steps_run": outcome["step"] - outcome["start_step"], "wall_s": wall, "setup_s": t_start - t_begin,
+        "compile_s": outcome["compile_s"], "stop_reason": outcome["stop_reason"], "length": outcome["length"],
+        "windows_per_s": (timed * train_config.batch_size / max(wall - outcome["compile_s"], 1e-9)
+                          if timed else 0.0),
+        "devices": f"{jax.device_count()} x {jax.devices()[0].platform}",
+        "num_windows": num_windows, "batch_size": train_config.batch_size, "workdir": str(workdir),
+        "log_every": train_config.log_every,
+    }
+    if jax.process_index() == 0:
+        records = reporting.read_metrics(workdir / "metrics.jsonl")
+        summary["final"] = records[-1] if records else {}
+        reporting.write_report(workdir, config_name or "config", records, summary)
+        if records:
+            plots.loss_curves(records, path=workdir / "loss_curves.png")
+    return summary
+
+
 def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | None = None,
           max_steps: int | None = None, config_name: str = "", progress: bool = True,
           dataset: dict | None = None, stats: Any = None, train_step: Callable | None = None,
@@ -652,161 +610,41 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
     """
     t_begin = time.perf_counter()
     workdir = pathlib.Path(workdir).expanduser().resolve()
-    is_main = jax.process_index() == 0
     workdir.mkdir(parents=True, exist_ok=True)
-    tc = config.train
-    mesh = make_mesh() if mesh is None else mesh
-
+    mesh = parallel.make_mesh() if mesh is None else mesh
     if dataset is None:
         dataset, stats = load_training_data(config, data_dir)
     num_windows = int(next(iter(dataset.values())).shape[0])
     if num_windows == 0:
         raise TrainingError("no training windows: check --data and config.data (window length, subjects)")
-    local = local_windows_slice(num_windows)
-    device_data = shard_dataset({k: v[local] for k, v in dataset.items()}, mesh)
-    per_epoch = steps_per_epoch(num_windows, tc.batch_size)
-    max_steps = total_steps(per_epoch, tc) if max_steps is None else int(max_steps)
-    buckets = [int(b) for b in tc.length_buckets or ()]
-    if buckets and max(buckets) < tc.max_length:
-        raise TrainingError(f"train.length_buckets={tuple(buckets)} must include a bucket >= train.max_length="
-                            f"{tc.max_length} (or set train.length_buckets= to mask one full-window step)")
-    checkpoint_every = tc.checkpoint_every_steps or max(1, int(round(tc.checkpoint_every * per_epoch)))
+    local = parallel.local_windows_slice(num_windows)
+    device_data = parallel.shard_dataset({k: v[local] for k, v in dataset.items()}, mesh)
+    plan = plan_run(num_windows, config.train, max_steps)
 
-    manager = checkpoints.open_manager(workdir, max_to_keep=tc.max_to_keep)
-    log = MetricsLog(workdir / "metrics.jsonl", enabled=is_main)
-    key = jax.random.PRNGKey(tc.seed)
-    latest = manager.latest_step()
+    manager = checkpoints.open_manager(workdir, max_to_keep=config.train.max_to_keep)
+    log = reporting.MetricsLog(workdir / "metrics.jsonl", enabled=jax.process_index() == 0)
     config_json = config_lib.to_dict(config)
-    if latest is not None:
-        saved_step, saved = _newest_readable_config(workdir)
-        try:  # fields added since that run was saved take their legacy / default value, as when loading it
-            saved = config_lib.to_dict(config_lib.from_dict(saved))
-        except (config_lib.ConfigError, TypeError):
-            pass
-        changed = [section for section in ("data", "model", "loss", "phase")
-                   if saved.get(section) != config_json.get(section)]
-        if changed:
-            checkpoints.close(manager)
-            raise TrainingError(
-                f"{workdir} holds a run (step {saved_step}) whose {', '.join(changed)} config differs from this "
-                "one; resume with the same config and overrides (only train.* may change), or use a new --workdir")
-        report = (lambda message: print(message, file=sys.stderr)) if is_main else None
-        try:
-            state, _, _, restored = checkpoints.restore_newest_good(
-                manager, abstract_train_state(config, mesh), report=report)
-        except checkpoints.CheckpointError as error:
-            checkpoints.close(manager)
-            raise TrainingError(str(error)) from None
-        if restored != latest:
-            _set_aside_newer_steps(manager, workdir, restored, report)
-            latest = restored
-        if is_main:
-            print(f"resuming from step {restored} ({checkpoints.checkpoint_dir(workdir) / str(restored)})",
-                  file=sys.stderr)
-        log.truncate_after(int(latest))
-    else:
-        phase_params = None
-        if getattr(config.model, "phase_modulation", False):
-            phase_params, phase_loss = pretrain_phase_params(config, dataset, jax.random.fold_in(key, 1))
-            if is_main:
-                print(f"phase network pretrained: final loss {float(phase_loss):.4g}")
-        state = create_train_state(config, key, phase_params, mesh)
-    extras = {"stats": stats_to_json(stats), "config_name": config_name}
-    start_step = int(state.step)
-
-    steps: dict = {}
-
-    def step_fn(length: int):
-        if train_step is not None:
-            return train_step
-        window = bucket_window(length, tc)
-        if window not in steps:
-            steps[window] = make_train_step(config, mesh, window)
-        return steps[window]
-
-    bar = None
-    if progress and is_main:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=max_steps, initial=start_step, unit="step", dynamic_ncols=True)
-    stop_reason = "reached max_steps"
+    state, latest = restore_or_init(config, config_json, workdir, manager, log, dataset, mesh)
+    extras = {"stats": stats_to_json(stats), "config_name": config_name,
+              "skeleton": bvh_folder.skeleton_facts(data_dir, config.data)}
+    saver = _Saver(manager, config_json, extras, latest)
+    step_for = (lambda length: train_step) if train_step is not None else _step_for_length(config, mesh)
+    bar = (tqdm(total=plan.max_steps, initial=int(state.step), unit="step", dynamic_ncols=True)
+           if progress and jax.process_index() == 0 else None)
     t_start = time.perf_counter()
-    compile_s = 0.0
-    t_log, windows_since_log = time.perf_counter(), 0
-    last_saved = latest
-    step = start_step
-    length = transition_length(step, per_epoch, tc)
-    interval_sums, interval_count = {}, 0  # metrics are logged as means over the logging interval
     try:
-        with _StopFlag() as stop:
-            while step < max_steps:
-                length = transition_length(step, per_epoch, tc)
-                t0 = time.perf_counter()
-                state, metrics = step_fn(length)(state, device_data, jnp.int32(length))
-                metrics = jax.device_get(metrics)
-                check_finite(metrics, step + 1)
-                for name, value in metrics.items():
-                    interval_sums[name] = interval_sums.get(name, 0.0) + float(value)
-                interval_count += 1
-                if step == start_step:
-                    compile_s = time.perf_counter() - t0
-                    t_log, windows_since_log = time.perf_counter(), 0
-                else:
-                    windows_since_log += tc.batch_size
-                step += 1
-                if step % tc.log_every == 0 or step == max_steps:
-                    now = time.perf_counter()
-                    rate = windows_since_log / max(now - t_log, 1e-9)
-                    record = {"step": step, **{k: v / interval_count for k, v in interval_sums.items()},
-                              "length": int(length), "epoch": step / per_epoch,
-                              "windows_per_s": rate, "time_s": now - t_start}
-                    log.write(record)
-                    t_log, windows_since_log = now, 0
-                    interval_sums, interval_count = {}, 0
-                    if bar is not None:
-                        bar.set_postfix(loss=f"{record['loss']:.4g}", L=length, win_s=f"{rate:.0f}")
-                if bar is not None:
-                    bar.update(1)
-                if step % checkpoint_every == 0 and step != max_steps:
-                    checkpoints.save(manager, step, state, config_json, extras)
-                    last_saved = step
-                if stop.requested:
-                    stop_reason = f"{stop.requested} received"
-                    break
+        state, outcome = run_loop(state, device_data, step_for, plan, config.train, log, saver, bar, t_start)
     except NonFiniteLossError as error:
-        if bar is not None:
-            bar.close()
-        checkpoints.close(manager)
+        _close(bar, manager)
         raise NonFiniteLossError(
-            f"{error} (checkpoint kept: {'none' if last_saved is None else f'step {last_saved}'} in "
+            f"{error} (checkpoint kept: {'none' if saver.last is None else f'step {saver.last}'} in "
             f"{checkpoints.checkpoint_dir(workdir)})") from None
     except KeyboardInterrupt:  # a second Ctrl-C: the state may be mid-update, so do not save it
-        if bar is not None:
-            bar.close()
-        checkpoints.close(manager)
+        _close(bar, manager)
         raise
     if bar is not None:
         bar.close()
-    if last_saved != step:
-        checkpoints.save(manager, step, state, config_json, extras)
+    if saver.last != outcome["step"]:
+        saver(outcome["step"], state)
     checkpoints.close(manager)
-
-    wall = time.perf_counter() - t_start
-    steps_run = step - start_step
-    timed = max(steps_run - 1, 0)
-    summary = {
-        "step": step, "start_step": start_step, "steps_run": steps_run, "wall_s": wall,
-        "setup_s": t_start - t_begin,
-        "compile_s": compile_s, "stop_reason": stop_reason, "length": int(length),
-        "windows_per_s": timed * tc.batch_size / max(wall - compile_s, 1e-9) if timed else 0.0,
-        "devices": f"{jax.device_count()} x {jax.devices()[0].platform}",
-        "num_windows": num_windows, "batch_size": tc.batch_size, "workdir": str(workdir),
-        "log_every": tc.log_every,
-    }
-    if is_main:
-        records = read_metrics(log.path)
-        summary["final"] = records[-1] if records else {}
-        write_report(workdir, config_name or "config", records, summary)
-        if records:
-            plot_loss_curves(records, workdir / "loss_curves.png")
-    return summary
+    return finish(workdir, config_name, outcome, num_windows, config.train, t_begin, t_start)

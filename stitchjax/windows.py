@@ -1,4 +1,5 @@
-"""Fixed-length motion windows: slicing, foot contacts, centring + facing alignment, time reversal.
+"""Fixed-length motion windows: slicing, foot contacts, centring + facing alignment, time reversal;
+the windows of a clip and the statistics of a set of clips, for every dataset.
 
 The facts reproduced here are those of the official LAFAN1 benchmark code (DESIGN.md §4):
 
@@ -28,12 +29,13 @@ import dataclasses
 import numpy as np
 
 from stitchjax import rotations as R
-from stitchjax.skeleton import GlobalTransforms, Skeleton
+from stitchjax.skeleton import GlobalTransforms, Skeleton, forward_kinematics
 
 __all__ = [
     "Windows", "window_starts", "window_indices", "foot_contacts", "contacts_from_displacement",
     "center_and_face", "center_and_face_global", "facing_rotation", "Stats", "window_statistics", "moments",
-    "combine_moments", "stats_from_moments", "CONTACT_THRESHOLD",
+    "combine_moments", "stats_from_moments", "clip_windows", "clip_moments", "concatenate_clips", "clips_statistics",
+    "CONTACT_THRESHOLD",
     "FACING_FRAME",
 ]
 
@@ -293,3 +295,65 @@ def center_and_face_global(global_positions, root_positions, root_rotations, fra
     for i in range(3):  # a rotation about +Y: (m[1, 0], m[1, 2]) = 0, m[1, 1] = 1 up to rounding
         out[..., i] = m[..., i, 0] * x + m[..., i, 1] * y + m[..., i, 2] * z
     return out
+
+
+# ------------------------------------------------------------------------------------------ clips
+
+
+def clip_windows(rotations, positions, parents, window: int, offset: int, feet, frame: int = FACING_FRAME,
+                 forward_axis=(0.0, 1.0, 0.0)) -> dict:
+    """The windows of one clip, cut and aligned as the LAFAN1 benchmark does (see the module docstring).
+
+    rotations (T, J, 4) / positions (T, J, 3): the clip's local transforms, file units. feet: the C contact
+    joints; frame / forward_axis: as :func:`center_and_face`. Returns {"starts": (N,) int64 start frames,
+    "rotations": (N, window, J, 4), "positions": (N, window, J, 3) centred and faced, "contacts": (N, window,
+    C) 0./1. on the raw windows}; N = 0 (no FK run) when the clip is not longer than ``window`` frames.
+    """
+    starts = window_starts(np.shape(rotations)[0], window, offset)
+    if len(starts) == 0:
+        j = np.shape(rotations)[-2]
+        return {"starts": starts, "rotations": np.zeros((0, window, j, 4)), "positions": np.zeros((0, window, j, 3)),
+                "contacts": np.zeros((0, window, len(feet)))}
+    idx = window_indices(starts, window)
+    _, global_positions = forward_kinematics(rotations, positions, parents)  # once: a window's FK is a slice
+    feet_positions = global_positions[:, list(feet)]
+    step = np.sum((feet_positions[1:] - feet_positions[:-1]) ** 2, axis=-1)  # (T-1, C) squared displacements
+    rotations, positions = center_and_face(rotations[idx], positions[idx], parents, frame, forward_axis)
+    return {"starts": starts, "rotations": rotations, "positions": positions,
+            "contacts": contacts_from_displacement(step[idx[:, :-1]])}
+
+
+def clip_moments(rotations, positions, parents, window: int, offset: int, frame: int = FACING_FRAME,
+                 forward_axis=(0.0, 1.0, 0.0)) -> dict:
+    """What the statistics need of one clip's windows, without materialising them (arguments as
+    :func:`clip_windows`). Returns {"starts": (N,), "moments": (count, mean, m2) of the aligned global
+    positions as rows of J*3, "first_local_positions": (J, 3) aligned local positions of the first window's
+    first frame, or None when N = 0}. Alignment touches only the root, so no FK runs per window."""
+    starts = window_starts(np.shape(rotations)[0], window, offset)
+    if len(starts) == 0:
+        return {"starts": starts, "moments": (0, 0.0, 0.0), "first_local_positions": None}
+    idx = window_indices(starts, window)
+    _, global_positions = forward_kinematics(rotations, positions, parents)  # once: a window's FK is a slice
+    aligned = center_and_face_global(global_positions[idx], positions[idx, 0], rotations[idx, 0], frame,
+                                     forward_axis)
+    _, first = center_and_face(rotations[idx[:1]], positions[idx[:1]], parents, frame, forward_axis)
+    return {"starts": starts, "moments": moments(aligned.reshape(-1, aligned.shape[-2] * 3)),
+            "first_local_positions": first[0, 0]}
+
+
+def concatenate_clips(clips) -> dict:
+    """The "rotations", "positions" and "contacts" of :func:`clip_windows` results (a non-empty list),
+    concatenated in order along the window axis."""
+    return {key: np.concatenate([clip[key] for clip in clips]) for key in ("rotations", "positions", "contacts")}
+
+
+def clips_statistics(clips) -> Stats:
+    """:class:`Stats` of the windows of :func:`clip_moments` results, in order: moments combined exactly,
+    offsets from the first clip that has a window. Raises ValueError when none has one."""
+    kept = [clip for clip in clips if len(clip["starts"])]
+    if not kept:
+        raise ValueError("no clip is longer than the window: no training windows")
+    total = (0, 0.0, 0.0)
+    for clip in kept:
+        total = combine_moments(total, clip["moments"])
+    return stats_from_moments(total, kept[0]["first_local_positions"])

@@ -1,6 +1,7 @@
 """The generic BVH-folder dataset (issue 12, item 1): declared / inferred feet and axes, resampling on
 load, units checked against the training skeleton, and bin/train on the CMU file."""
 import dataclasses
+import json
 import os
 import pathlib
 import subprocess
@@ -9,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from stitchjax import bvh, bvh_folder, conform, sample
+from stitchjax import bvh, bvh_folder, conform, inbetween, rotations, sample
 from stitchjax import config as config_lib
 from stitchjax.skeleton import forward_kinematics
 
@@ -100,17 +101,49 @@ def test_split_by_patterns_and_missing_feet(lafan_slice, tmp_path):
         bvh_folder.resolve(lafan_slice, _data(feet=("LeftAnkle", "LeftToe", "RightFoot", "RightToe")))
 
 
-@pytest.mark.slow
-def test_bin_train_on_the_cmu_file_trains_and_checkpoints(cmu_folder, tmp_path):
+CMU_FEET = ["LeftFoot", "LeftToeBase", "RightFoot", "RightToeBase"]
+
+
+@pytest.fixture(scope="module")
+def cmu_run(shared_data, tmp_path_factory):
+    """bin/train --config cmu on the CMU file for 2 steps of a tiny model (one run for the tests below)."""
+    folder = tmp_path_factory.mktemp("cmu_data")
+    (folder / "01_01.bvh").symlink_to(shared_data / "cmu" / "01_01.bvh")
+    run = tmp_path_factory.mktemp("cmu_run") / "run"
     tiny = ["model.encoder_widths=16,16,16", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
             "model.gating_widths=8,8", "model.disc_widths=16,16", "model.disc_long_window=4", "phase.steps=20",
             "phase.hidden_dim=16", "data.window=12", "train.max_length=8", "train.batch_size=4", "train.log_every=1"]
-    result = subprocess.run([sys.executable, str(REPO / "bin" / "train"), "--config", "cmu", "--workdir",
-                             str(tmp_path / "run"), "--data", str(cmu_folder), "--max-steps", "2", "--no-progress",
-                             *tiny], capture_output=True, text=True, timeout=400,
-                            env={**os.environ, "PYTHONPATH": str(REPO)})
+    result = subprocess.run([sys.executable, str(REPO / "bin" / "train"), "--config", "cmu", "--workdir", str(run),
+                             "--data", str(folder), "--max-steps", "2", "--no-progress", *tiny],
+                            capture_output=True, text=True, timeout=400, env={**os.environ, "PYTHONPATH": str(REPO)})
     assert result.returncode == 0, result.stderr[-3000:]
-    assert (tmp_path / "run" / "checkpoints" / "2").is_dir()
-    saved = config_lib.from_dict(__import__("json").loads(
-        (tmp_path / "run" / "checkpoints" / "2" / "config" / "metadata").read_text()))
+    return run
+
+
+@pytest.mark.slow
+def test_bin_train_on_the_cmu_file_trains_and_checkpoints(cmu_run):
+    assert (cmu_run / "checkpoints" / "2").is_dir()
+    saved = config_lib.from_dict(json.loads((cmu_run / "checkpoints" / "2" / "config" / "metadata").read_text()))
     assert saved.data.dataset == "bvh_folder" and saved.data.feet[0] == "LeftFoot"
+    facts = json.loads((cmu_run / "checkpoints" / "2" / "extras" / "metadata").read_text())["skeleton"]
+    assert facts["feet_names"] == CMU_FEET and [facts["joint_names"][j] for j in facts["feet"]] == CMU_FEET
+    assert (facts["up_axis"], facts["forward_axis"], facts["unit_scale"]) == ("+y", "+z", 5.6444)
+
+
+@pytest.mark.slow
+def test_cmu_model_samples_a_transition_from_the_cmu_file_ending_on_the_target(cmu_run, shared_data):
+    model = inbetween.load_model(cmu_run)
+    take = bvh.load(shared_data / "cmu" / "01_01.bvh")  # 120 fps, CMU units (1/0.45 inch)
+    assert model.joint_names == take.skeleton.names and model.feet_names == tuple(CMU_FEET)
+    assert model.forward_axis == (0.0, 0.0, 1.0) and model.unit_scale == 5.6444
+    out = inbetween.inbetween_takes(model, take, 40, take, 68, num_samples=2, output="transition")
+    assert [m.num_frames for m in out] == [8, 8] and out[0].fps == 30.0  # 28 frames at 120 fps: 6 generated
+    for m in out:  # in the file's units again, on the keyframes to float64 rounding
+        np.testing.assert_allclose(m.positions[[0, -1]], take.positions[[40, 68]], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(m.rotations[[0, -1]], take.rotations[[40, 68]], rtol=0, atol=1e-12)
+    # the start keyframe is faced as the training windows were: the root's local +Z (not LAFAN1's +Y) onto +X
+    k = inbetween.to_model_frame(model, take[40:41])
+    aligned, _, _, _ = inbetween._alignment(k.rotations, k.positions, k.rotations, k.positions, model.parents,
+                                            model.forward_axis)
+    forward = rotations.quat_rotate(aligned[0, 0, 0], np.array(model.forward_axis))
+    np.testing.assert_allclose(forward / np.linalg.norm(forward[[0, 2]]) * [1, 0, 1], [1, 0, 0], atol=1e-9)

@@ -39,17 +39,24 @@ def _noisy_method(windows, start, length, num_samples, seed):
 def test_benchmark_schema_and_baseline_ordering(sample):
     stats, windows = sample
     results = evaluate.benchmark_baselines(stats, windows)
-    assert results["n_windows"] == windows.num_windows
-    for name in ("zerov", "interp"):
-        assert set(results[name]) == {"l2q", "l2p", "npss"}
-        for values in results[name].values():
-            assert list(values) == ["5", "15", "30", "45"]
+    # the nesting of evaluate_protocol: lengths -> method -> metric, with units and settings
+    assert set(results) == {"n_windows", "samples", "lengths", "units", "settings"}
+    assert results["n_windows"] == windows.num_windows and results["samples"] == 1
+    assert list(results["lengths"]) == ["5", "15", "30", "45"]
+    assert {"l2q", "l2p", "npss"} <= set(results["units"]) and "unitless" in results["units"]["l2p"]
+    for entry in results["lengths"].values():
+        assert list(entry) == ["zerov", "interp"]
+        for values in entry.values():
+            assert set(values) == {"l2q", "l2p", "npss"}
             assert all(np.isfinite(v) and v > 0 for v in values.values())
     for n in ("15", "30", "45"):
-        assert results["zerov"]["l2p"][n] > results["interp"]["l2p"][n]
-        assert results["zerov"]["l2q"][n] > results["interp"]["l2q"][n]
+        entry = results["lengths"][n]
+        assert entry["zerov"]["l2p"] > entry["interp"]["l2p"]
+        assert entry["zerov"]["l2q"] > entry["interp"]["l2q"]
     table = evaluate.format_benchmark_table(results)
-    assert "Global pos losses" in table and f"{results['interp']['l2p']['30']:6.4f}" in table
+    row = next(line for line in table.splitlines() if line.split()[:2] == ["30", "interp"])
+    assert f"{results['lengths']['30']['interp']['l2p']:.4f}" in row and "l2p (-)" in table
+    assert table.splitlines()[-1].startswith("units: ")
 
 
 def test_protocol_interp_matches_the_benchmark(sample):
@@ -62,7 +69,7 @@ def test_protocol_interp_matches_the_benchmark(sample):
         for name in ("interp", "zerov"):
             for key in ("l2p", "l2q", "npss"):
                 # the benchmark uses the training bone offsets, the protocol each window's own (1e-5 cm apart)
-                assert proto["lengths"][n][name][key] == pytest.approx(bench[name][key][n], rel=1e-6)
+                assert proto["lengths"][n][name][key] == pytest.approx(bench["lengths"][n][name][key], rel=1e-6)
 
 
 def test_protocol_schema_and_perfect_method(sample):
@@ -83,6 +90,10 @@ def test_protocol_schema_and_perfect_method(sample):
         assert entry["zerov"]["ade"] > entry["interp"]["ade"] > 0
         assert entry["interp"]["apd"] == 0.0
     json.dumps(out)  # plain JSON types
+    table = evaluate.format_protocol_table(out)  # the layout of the benchmark's table, units in the header
+    assert "ade (m)" in table and "foot_slide (cm/f)" in table and table.splitlines()[-1].startswith("units: ")
+    row = next(line for line in table.splitlines() if line.split()[:2] == ["50", "zerov"])
+    assert f"{out['lengths']['50']['zerov']['ade']:.4f}" in row
 
 
 def test_protocol_diversity_and_best_of_n(sample):
@@ -136,11 +147,13 @@ def test_cli_baselines_writes_the_schema(tmp_path):
     out = tmp_path / "baselines.json"
     proc = _run_cli("baselines", "--data", str(sample_dir()), "--json", str(out))
     assert proc.returncode == 0, proc.stderr
-    assert "Global pos losses" in proc.stdout
     results = json.loads(out.read_text())
     assert results["n_windows"] > 0
-    assert set(results) == {"n_windows", "zerov", "interp"}
-    assert set(results["interp"]["npss"]) == {"5", "15", "30", "45"}
+    assert set(results) == {"n_windows", "samples", "lengths", "units", "settings"}
+    assert set(results["lengths"]) == {"5", "15", "30", "45"}
+    assert set(results["lengths"]["15"]) == {"zerov", "interp"}
+    value = results["lengths"]["15"]["interp"]["npss"]
+    assert 0 < value < 1 and f"{value:.4f}" in proc.stdout and "units: " in proc.stdout
 
 
 def test_cli_reports_a_folder_without_test_subject_in_one_line(tmp_path):

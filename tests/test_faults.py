@@ -4,6 +4,7 @@ import gzip
 import json
 import os
 import pathlib
+import shutil
 import signal
 import socket
 import subprocess
@@ -37,6 +38,18 @@ def _truncate_state(step_folder: pathlib.Path) -> None:
     assert files, f"no array files under {step_folder}"
     for path in files:
         path.write_bytes(path.read_bytes()[:20])
+
+
+_CLOSED_LOOP_NOISE = ("Traceback (most recent call last):", "asyncio/base_events.py", "self._check_closed()",
+                      "raise RuntimeError('Event loop is closed')", "RuntimeError: Event loop is closed")
+
+
+def _without_orbax_closed_loop_noise(text: str) -> str:
+    """stderr without the lines of the "RuntimeError: Event loop is closed" tracebacks that TensorStore's
+    threads may still print, interleaved, after orbax failed on a broken folder (stitchjax.checkpoints drops
+    those that reach sys.excepthook; some are printed past it). A traceback of any other error keeps its
+    '  File "..."' lines, so the caller checks for those."""
+    return "\n".join(line for line in text.splitlines() if not any(n in line for n in _CLOSED_LOOP_NOISE))
 
 
 def test_corrupt_gzip_is_a_bvherror_naming_the_file(tmp_path):
@@ -74,16 +87,13 @@ def test_broken_newest_checkpoint_falls_back_and_names_the_folder(tmp_path):
     checkpoints.close(manager)
 
 
-def test_inbetween_load_model_falls_back_over_a_broken_checkpoint(tmp_path, capsys):
-    from stitchjax import config as config_lib, inbetween, train
+def test_inbetween_load_model_falls_back_over_a_broken_checkpoint(tiny_run, tmp_path, capsys):
+    from stitchjax import inbetween
 
-    config = config_lib.load_config("tiny")
-    state = train.create_train_state(config, jax.random.PRNGKey(0))
-    manager = checkpoints.open_manager(tmp_path, async_save=False)
-    for step in (5, 9):
-        checkpoints.save(manager, step, state, config_lib.to_dict(config), {"config_name": "tiny"})
-    checkpoints.close(manager)
     folder = checkpoints.checkpoint_dir(tmp_path)
+    folder.mkdir(parents=True)
+    for step in (5, 9):  # the session's tiny checkpoint as steps 5 and 9 (no new train state to compile)
+        shutil.copytree(checkpoints.checkpoint_dir(tiny_run) / "0", folder / str(step))
     _truncate_state(folder / "9")
     model = inbetween.load_model(tmp_path)
     assert model.source.endswith("step 5")
@@ -109,7 +119,7 @@ def test_train_cli_exit_codes_resume_message_and_checkpoint_fallback(tmp_path):
     assert resumed.returncode == 0, resumed.stderr[-2000:]
     assert f"checkpoint {run / 'checkpoints' / '2'} cannot be restored" in resumed.stderr
     assert "falling back to step 1" in resumed.stderr and "resuming from step 1" in resumed.stderr
-    assert "Traceback" not in resumed.stderr
+    assert '  File "' not in _without_orbax_closed_loop_noise(resumed.stderr)
     names = sorted(p.name for p in (run / "checkpoints").iterdir())
     assert "2.broken" in names and "3" in names  # nothing deleted; training went on from step 1
     steps = [json.loads(line)["step"] for line in (run / "metrics.jsonl").read_text().splitlines()]

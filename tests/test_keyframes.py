@@ -4,6 +4,8 @@ another scale, extra joints, transition lengths beyond training, and the CLI's u
 All rollouts use the tiny model's (length 8, 4 candidates), as tests/test_inbetween.py does, so the
 sampler compiles once."""
 import dataclasses
+import importlib.machinery
+import importlib.util
 import os
 import pathlib
 import subprocess
@@ -80,6 +82,21 @@ def test_take_in_metres_is_refused_with_the_ratio_and_the_fix(model, take):
     assert np.abs(g[101:109, 0, 1]).max() < 10.0  # generated frames in metres too (hips ~0.9, not ~90)
 
 
+def test_model_of_z_up_files_takes_a_z_up_take_and_gives_it_back_z_up(model, take):
+    """A model trained on Z-up files (in inches): the same request in those terms gives the same motion,
+    turned and scaled back; the offset is in the take's axes (Z-up: the LAFAN1 +z offset is the file's -y)."""
+    z_model = dataclasses.replace(model, up_axis=(0.0, 0.0, 1.0), unit_scale=2.54)
+    z_take = conform.rescale(conform.from_y_up(take, (0.0, 0.0, 1.0)), 1 / 2.54)
+    assert np.abs(z_take.global_positions()[100, 13, 2] - take.global_positions()[100, 13, 1] / 2.54) < 1e-9
+    kw = dict(length=LENGTH, num_samples=2, turn_degrees=30.0, output="appended")
+    y_out = inbetween.inbetween_takes(model, take, 100, take, 300, offset=(0.0, 0.0, 200.0), **kw)
+    z_out = inbetween.inbetween_takes(z_model, z_take, 100, z_take, 300, offset=(0.0, -200 / 2.54, 0.0), **kw)
+    for y, z in zip(y_out, z_out):
+        back = conform.to_y_up(conform.rescale(z, 2.54), (0.0, 0.0, 1.0)).global_positions()
+        np.testing.assert_allclose(back, y.global_positions(), atol=1e-3)  # float32 rollout, ~1e-5 cm apart
+        np.testing.assert_allclose(z.positions[:101], z_take.positions[:101], rtol=0, atol=1e-9)
+
+
 def test_take_at_120_fps_is_resampled_and_keeps_the_keyframes(model, take):
     fast, anchor = conform.resample(take[80:140], 120.0, 20)  # frame 100 of the take -> frame 80 at 120 fps
     assert fast.fps == 120.0 and anchor == 80 and fast.num_frames == 237
@@ -130,23 +147,36 @@ def _cli(*args):
                           capture_output=True, text=True, env=env, timeout=300)
 
 
-def test_cli_refuses_out_on_a_file_long_lengths_and_bad_target_flags(tiny_run, tmp_path):
+def _cli_here(capsys, *args):
+    """bin/inbetween's main() in this process (no interpreter or jax start-up): (exit status, stderr)."""
+    loader = importlib.machinery.SourceFileLoader("bin_inbetween", str(REPO / "bin" / "inbetween"))
+    module = importlib.util.module_from_spec(importlib.util.spec_from_loader(loader.name, loader))
+    loader.exec_module(module)
+    try:
+        code = module.main([str(a) for a in args])
+    except SystemExit as exit_:  # argparse's own errors
+        code = exit_.code
+    return subprocess.CompletedProcess(args, code, "", capsys.readouterr().err)
+
+
+def test_cli_refuses_out_on_a_file_long_lengths_and_bad_target_flags(tiny_run, tmp_path, capsys):
     source = sample.sample_files(["subject5"])[0]
     existing = tmp_path / "existing.txt"
     existing.write_text("keep me")
     base = ["--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100]
-    result = _cli(*base, "--end-frame", 109, "--out", existing)
+    result = _cli_here(capsys, *base, "--end-frame", 109, "--out", existing)
     assert result.returncode == 2 and "--out" in result.stderr and "is a file" in result.stderr
     assert result.stderr.strip().count("\n") == 0 and existing.read_text() == "keep me"
-    result = _cli(*base, "--end-frame", 130, "--out", tmp_path / "o")
+    result = _cli_here(capsys, *base, "--end-frame", 130, "--out", tmp_path / "o")
     assert result.returncode == 2 and "length 29 is longer than the 8 frames" in result.stderr
     assert "--allow-extrapolation" in result.stderr and not (tmp_path / "o").exists()
-    result = _cli(*base, "--target-bvh", source, "--out", tmp_path / "o")
+    result = _cli_here(capsys, *base, "--target-bvh", source, "--out", tmp_path / "o")
     assert result.returncode == 2 and "--target-frame" in result.stderr
-    result = _cli(*base, "--target-bvh", source, "--target-frame", 50, "--out", tmp_path / "o")
+    result = _cli_here(capsys, *base, "--target-bvh", source, "--target-frame", 50, "--out", tmp_path / "o")
     assert result.returncode == 2 and "--length" in result.stderr
-    result = _cli(*base, "--target-bvh", source, "--target-frame", 50, "--length", 8, "--target-offset", "3,x",
-                  "--out", tmp_path / "o")
+    result = _cli_here(capsys, *base, "--target-bvh", source, "--target-frame", 50, "--length", 8,
+                       "--target-offset", "3,x",
+                       "--out", tmp_path / "o")
     assert result.returncode == 2 and "--target-offset" in result.stderr
 
 

@@ -95,3 +95,15 @@ def test_animate_writes_gif(tmp_path):
     path = plots.animate([_walk(num_frames=6)], LAFAN1_PARENTS, tmp_path / "a.gif", fps=10, dpi=40)
     assert path.is_file() and path.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
 
+
+
+def test_loss_curves_one_panel_per_term_parts_shared(tmp_path):
+    records = [{"step": s, "loss": 10.0 / s, "fk": 1.0 / s, "fk_forward": 0.6 / s, "fk_backward": 0.4 / s,
+                "length": 5, "epoch": s / 4, "windows_per_s": 30.0, "time_s": float(s)} for s in range(1, 9)]
+    path = tmp_path / "loss_curves.png"
+    fig = plots.loss_curves(records, path=path)
+    _check_png(path, fig)
+    drawn = [ax for ax in fig.axes if ax.axison]
+    assert [ax.get_title() for ax in drawn] == ["loss", "fk", "length"]
+    assert len(drawn[1].get_lines()) == 3  # fk with its forward and backward parts
+    assert imread(path).shape[:2] == (216, 1296)  # one row of four 3.6 x 2.4 inch panels at 90 dpi

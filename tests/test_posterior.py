@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from stitchjax import config as C
-from stitchjax import inbetween, losses, metrics, train
+from stitchjax import inbetween, losses, metrics, parallel, train
 from stitchjax import networks as N
 from stitchjax import rollout as RO
 
@@ -92,10 +92,10 @@ def test_one_train_step_changes_the_posterior_and_the_kl_is_kl_q_p():
     config = tiny_config()
     data, _ = train.load_training_data(config, None)
     data = {k: (x[:8, :10] if x.shape[1] > 1 else x[:8]) for k, x in data.items()}
-    mesh = train.make_mesh()
+    mesh = parallel.make_mesh()
     state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
     before = jax.device_get(state.params)
-    state, m = train.make_train_step(config, mesh)(state, train.shard_dataset(data, mesh), jnp.int32(6))
+    state, m = train.make_train_step(config, mesh)(state, parallel.shard_dataset(data, mesh), jnp.int32(6))
     after = jax.device_get(state.params)
     for direction in ("forward", "backward"):
         pairs = zip(jax.tree.leaves(before[direction]["params"]["posterior"]),

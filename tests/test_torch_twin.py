@@ -23,7 +23,7 @@ from stitchjax import features, networks, phase  # noqa: E402
 
 TINY = ["model.encoder_widths=32,32,16", "model.lstm_size=32", "model.latent_dim=8", "model.decoder_widths=32,32",
         "model.gating_widths=16,16", "model.disc_widths=32,16", "phase.hidden_dim=16", "data.window=14",
-        "train.max_length=12", "train.batch_size=3"]
+        "train.max_length=12", "train.batch_size=3", *run_all.TWIN_MODEL]
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from stitchjax import checkpoints, config as config_lib, train
+from stitchjax import checkpoints, config as config_lib, parallel, train
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 FRAMES = 10  # tiny windows: transitions of up to 8 frames
@@ -28,7 +28,7 @@ def dataset():
 
 
 def _device_data(data, mesh):
-    return train.shard_dataset(data, mesh)
+    return parallel.shard_dataset(data, mesh)
 
 
 def test_schedule_and_buckets():
@@ -44,7 +44,7 @@ def test_schedule_and_buckets():
 def test_one_step_changes_every_parameter_group(dataset, extra):
     data, _ = dataset
     config = tiny_config(*extra)
-    mesh = train.make_mesh()
+    mesh = parallel.make_mesh()
     state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
     before = jax.device_get(state.params)
     phase_before = jax.device_get(state.phase_params)
@@ -68,7 +68,7 @@ def test_tiny_model_overfits_one_batch(dataset):
     data, _ = dataset
     config = tiny_config()  # the same compiled program as the other tests
     one_batch = {name: x[:4] for name, x in data.items()}
-    mesh = train.make_mesh()
+    mesh = parallel.make_mesh()
     state = train.create_train_state(config, jax.random.PRNGKey(1), None, mesh)
     step = train.make_train_step(config, mesh)
     device_data = _device_data(one_batch, mesh)
@@ -156,17 +156,17 @@ def test_sigterm_saves_current_step_and_stops(dataset, tmp_path):
 DATA_PARALLEL_SCRIPT = """
 import jax, jax.numpy as jnp, numpy as np, sys
 sys.path.insert(0, {repo!r})
-from stitchjax import config as config_lib, train
+from stitchjax import config as config_lib, parallel, train
 assert jax.device_count() == 4, jax.devices()
 config = config_lib.load_config("tiny")
 data = dict(np.load({data!r}))
-mesh = train.make_mesh()
+mesh = parallel.make_mesh()
 initial = np.load({initial!r})  # the main process's initial state (saves compiling the init again)
 abstract = train.abstract_train_state(config, mesh)
 leaves, treedef = jax.tree.flatten(abstract)
 state = jax.tree.unflatten(treedef, [jax.device_put(initial[f"arr_{{i}}"], x.sharding) for i, x in enumerate(leaves)])
 step = train.make_train_step(config, mesh)
-device_data = train.shard_dataset(data, mesh)
+device_data = parallel.shard_dataset(data, mesh)
 for _ in range(2):
     state, metrics = step(state, device_data, jnp.int32(6))
 batch = step.sample(device_data, state.key, state.step)
@@ -180,11 +180,11 @@ def test_data_parallel_step_matches_single_device(dataset, tmp_path):
     data, _ = dataset
     np.savez(tmp_path / "data.npz", **data)
     config = tiny_config()
-    mesh = train.make_mesh()
+    mesh = parallel.make_mesh()
     state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
     np.savez(tmp_path / "initial.npz", *jax.device_get(jax.tree.leaves(state)))
     step = train.make_train_step(config, mesh)
-    device_data = train.shard_dataset(data, mesh)
+    device_data = parallel.shard_dataset(data, mesh)
     for _ in range(2):
         state, metrics = step(state, device_data, jnp.int32(6))
     env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=4", "JAX_PLATFORMS": "cpu"}

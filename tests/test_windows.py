@@ -5,8 +5,9 @@ import pytest
 from stitchjax import rotations as R
 from stitchjax.skeleton import (LAFAN1_FEET, LAFAN1_PARENTS, forward_kinematics, inverse_kinematics,
                                 lafan1_skeleton)
-from stitchjax.windows import (Windows, center_and_face, center_and_face_global, foot_contacts,
-                               window_indices, window_starts, window_statistics)
+from stitchjax.windows import (Windows, center_and_face, center_and_face_global, clip_moments, clip_windows,
+                               clips_statistics, concatenate_clips, foot_contacts, window_indices, window_starts,
+                               window_statistics)
 
 J = len(LAFAN1_PARENTS)
 
@@ -175,3 +176,29 @@ def test_window_statistics_match_direct_computation():
     np.testing.assert_allclose(stats.std, g.std(axis=0), rtol=1e-12)
     np.testing.assert_array_equal(stats.offsets[1:], w.positions[0, 0, 1:])
     np.testing.assert_array_equal(stats.offsets[0], 0.0)
+
+
+def test_clip_windows_and_their_statistics_agree_with_the_window_functions():
+    rng = np.random.default_rng(5)
+    clips = [random_motion(rng, (t,)) for t in (30, 12, 41)]  # the 12-frame clip has no 12-frame window
+    cut = [clip_windows(rot, pos, LAFAN1_PARENTS, 12, 8, LAFAN1_FEET, frame=3) for rot, pos in clips]
+    assert [len(c["starts"]) for c in cut] == [3, 0, 4]
+    assert cut[1]["rotations"].shape == (0, 12, J, 4) and cut[1]["contacts"].shape == (0, 12, len(LAFAN1_FEET))
+    rot, pos = clips[2]
+    idx = window_indices(window_starts(41, 12, 8), 12)
+    expected = center_and_face(rot[idx], pos[idx], LAFAN1_PARENTS, 3)
+    np.testing.assert_array_equal(cut[2]["rotations"], expected[0])
+    np.testing.assert_array_equal(cut[2]["positions"], expected[1])
+    np.testing.assert_array_equal(cut[2]["contacts"],
+                                  foot_contacts(forward_kinematics(rot[idx], pos[idx], LAFAN1_PARENTS)[1], LAFAN1_FEET))
+    arrays = concatenate_clips(cut)
+    assert arrays["rotations"].shape == (7, 12, J, 4)
+    windows = Windows(arrays["rotations"], arrays["positions"], arrays["contacts"], lafan1_skeleton(clips[0][1][0]),
+                      30.0, [str(i) for i in range(7)])
+    stats = clips_statistics([clip_moments(rot, pos, LAFAN1_PARENTS, 12, 8, frame=3) for rot, pos in clips])
+    direct = window_statistics(windows)
+    np.testing.assert_allclose(stats.mean, direct.mean, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(stats.std, direct.std, rtol=1e-9)
+    np.testing.assert_allclose(stats.offsets, direct.offsets, atol=1e-9)
+    with pytest.raises(ValueError, match="no clip"):
+        clips_statistics([clip_moments(rot, pos, LAFAN1_PARENTS, 50, 8) for rot, pos in clips])

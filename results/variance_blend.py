@@ -1,0 +1,54 @@
+#!/usr/bin/env python3
+"""Sampling a trained model with either latent-interpolation variance blend (model.variance_blend).
+
+    python results/variance_blend.py --checkpoint runs/lafan1_cpu --data ../shared/data/lafan1 \
+        --json results/lafan1_cpu/variance_blend.json
+
+The model is evaluated with the paper's protocol twice, once with each blend of the prior's standard
+deviations ("std": sigma = (1-g) s + g s_t; "var": sigma^2 = (1-g)^2 s^2 + g^2 s_t^2), everything else
+equal (same weights, seed and windows). Only the spread of the prior changes, most at mid-direction
+(g = 1/2, where "var" shrinks a unit sigma to 0.71).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import pathlib
+import sys
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from stitchjax import config as config_lib  # noqa: E402
+from stitchjax import evaluate, inbetween, lafan1, skeleton  # noqa: E402
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--checkpoint", required=True)
+    parser.add_argument("--data", required=True)
+    parser.add_argument("--lengths", default="30,50")
+    parser.add_argument("--samples", type=int, default=10)
+    parser.add_argument("--json", required=True)
+    args = parser.parse_args(argv)
+    model = inbetween.load_model(args.checkpoint)
+    methods, settings = {}, {}
+    for blend in config_lib.CHOICES[("model", "variance_blend")]:
+        config = config_lib.apply_overrides(model.config, [f"model.variance_blend={blend}"])
+        name = f"model_{blend}"
+        methods[name] = inbetween.model_method(dataclasses.replace(model, config=config))
+        settings[name] = f"variance_blend={blend}" + (" (trained)" if blend == model.config.model.variance_blend
+                                                        else " (at sampling only)")
+    windows = lafan1.test_windows(args.data)
+    stats = lafan1.train_statistics(args.data)
+    results = evaluate.evaluate_protocol(methods, windows, stats, lengths=tuple(int(x) for x in args.lengths.split(",")),
+                                         samples=args.samples, feet=tuple(skeleton.LAFAN1_FEET), settings=settings)
+    print(evaluate.format_protocol_table(results))
+    pathlib.Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+    pathlib.Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

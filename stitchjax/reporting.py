@@ -1,0 +1,70 @@
+"""A training run's record: WORKDIR/metrics.jsonl (one JSON object per logged step) and WORKDIR/report.md.
+
+Records are flat dicts: "step" (int), the loss terms (means over the logging interval), "length" (the
+transition length, frames), "epoch", "windows_per_s" and "time_s" (seconds since the loop started).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+
+
+class MetricsLog:
+    """Appends one JSON object per logged step to WORKDIR/metrics.jsonl (process 0 only)."""
+
+    def __init__(self, path: str | os.PathLike, enabled: bool = True):
+        self.path = pathlib.Path(path)
+        self.enabled = enabled
+
+    def truncate_after(self, step: int) -> None:
+        """Drop records past `step` (left by a run that died after logging them but before saving)."""
+        if not (self.enabled and self.path.is_file()):
+            return
+        kept = [line for line in self.path.read_text().splitlines()
+                if line.strip() and json.loads(line).get("step", 0) <= step]
+        self.path.write_text("".join(line + "\n" for line in kept))
+
+    def write(self, record: dict) -> None:
+        """Append `record` as one line (nothing when disabled)."""
+        if not self.enabled:
+            return
+        with self.path.open("a") as f:
+            f.write(json.dumps(record) + "\n")
+
+
+def read_metrics(path: str | os.PathLike) -> list[dict]:
+    """The records of a metrics.jsonl file ([] when there is none)."""
+    path = pathlib.Path(path)
+    if not path.is_file():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def write_report(workdir: pathlib.Path, config_name: str, records: list[dict], summary: dict) -> None:
+    """WORKDIR/report.md: steps, time, throughput, first and final value of every logged term.
+
+    summary: the dict `train.train` returns (step, start_step, steps_run, setup_s, wall_s, compile_s in
+    seconds, windows_per_s, devices, num_windows, batch_size, length, stop_reason, log_every).
+    """
+    lines = [f"# Training report: {config_name}", "",
+             f"- steps: {summary['step']} (this invocation: {summary['steps_run']}, "
+             f"started at step {summary['start_step']})",
+             f"- wall time (this invocation): {summary['setup_s']:.1f} s setup (data, phase pretraining, "
+             f"init or restore) + {summary['wall_s']:.1f} s training loop, of which first-step compile "
+             f"{summary['compile_s']:.1f} s",
+             f"- throughput: {summary['windows_per_s']:.1f} windows/s; devices: {summary['devices']}",
+             f"- training windows: {summary['num_windows']}; batch {summary['batch_size']}; "
+             f"final transition length {summary['length']}",
+             f"- stopped because: {summary['stop_reason']}", ""]
+    if records:
+        last = records[-1]
+        lines += [f"Loss terms at the first and the last logged step (means over the {summary['log_every']} "
+                  "steps before it):", "", "| term | first logged | final |", "|---|---|---|"]
+        for name in last:
+            if name in ("step", "time_s", "windows_per_s"):
+                continue
+            lines.append(f"| {name} | {records[0].get(name, float('nan')):.5g} | {last[name]:.5g} |")
+    lines += ["", "Loss curves: loss_curves.png; every logged step: metrics.jsonl."]
+    (workdir / "report.md").write_text("\n".join(lines) + "\n")
