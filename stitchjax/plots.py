@@ -240,7 +240,8 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
     xmax = max(float(p[..., 0].max()) for p in placed)
     pad = 0.05 * height
     data_w, data_h = xmax - xmin + 2 * pad, height + 2 * pad
-    label_w = 0.7 if titles is not None else 0.1
+    # room for the row titles: about 0.065 inch per character at font size 8
+    label_w = max(0.7, 0.15 + 0.065 * max(len(str(t)) for t in titles)) if titles else 0.1
     title_h = 0.3 if title else 0.0
     if figsize is None:  # rows of row_height inches, width following the data's aspect
         figsize = (label_w + 0.1 + row_height * data_w / data_h, row_height * len(motions) + title_h)
