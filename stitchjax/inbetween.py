@@ -42,7 +42,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from stitchjax import bvh_folder, conform
+from stitchjax import bvh_folder, conform, losses
 from stitchjax import rotations as R
 from stitchjax.bvh import Motion
 from stitchjax.skeleton import LAFAN1_FEET, forward_kinematics
@@ -252,13 +252,12 @@ def with_matmul_dtype(model: Model, dtype: str) -> Model:
 
 
 def stitch_losses(result: dict) -> jax.Array:
-    """Stitching loss per rollout: mean over the overlapping frames of the mean absolute difference
-    (over joints and x, y, z) between the forward and backward FK positions; (...,), file units.
-    0 when the transition is too short to overlap (L < 2) or the model is forward-only."""
+    """Stitching loss (``losses.stitching_loss``) per rollout: mean over the overlapping frames of the mean
+    absolute difference (over joints and x, y, z) between the forward and backward FK positions; (...,),
+    file units. 0 when the transition is too short to overlap (L < 2) or the model is forward-only."""
     overlap = result["overlap"]
-    diff = jnp.abs(overlap["forward_positions"] - overlap["backward_positions"]).mean(axis=(-1, -2))
-    mask = overlap["mask"].astype(diff.dtype)
-    return (diff * mask).sum(-1) / jnp.maximum(mask.sum(-1), 1.0)
+    return losses.stitching_loss(overlap["forward_positions"], overlap["backward_positions"], overlap["mask"],
+                                 reduction="mean", per_motion=True)
 
 
 @functools.lru_cache(maxsize=32)

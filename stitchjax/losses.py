@@ -99,15 +99,21 @@ def fk_loss(pred_positions, true_positions, mask, position_scale: float, reducti
     return masked_mean(_norm1(diff, reduction, (-2, -1)), mask)
 
 
-def stitching_loss(pos_fwd, pos_bwd, mask, position_scale: float = 1.0, reduction: str = "sum"):
+def stitching_loss(pos_fwd, pos_bwd, mask, position_scale: float = 1.0, reduction: str = "sum",
+                   per_motion: bool = False):
     """Stitching loss, paper Eq. 3: mean L1 distance between the forward and backward sequences' FK global
     positions over the 2K overlapping frames.
 
     pos_fwd, pos_bwd: (..., 2K, J, 3) positions of the same frames (``rollout(...)["overlap"]``);
     mask (..., 2K) true on the overlap (fewer than 2K frames for short transitions). Zero when the two
-    sequences agree, positive otherwise.
+    sequences agree, positive otherwise. Returns a scalar (the mean over every motion's valid frames, as
+    training uses it), or with ``per_motion`` one value per motion (...,) (the latent-pair search).
     """
-    return fk_loss(pos_fwd, pos_bwd, mask, position_scale, reduction)
+    if not per_motion:
+        return fk_loss(pos_fwd, pos_bwd, mask, position_scale, reduction)
+    per_frame = _norm1((pos_fwd - pos_bwd) / position_scale, reduction, (-2, -1))
+    mask = mask.astype(per_frame.dtype)
+    return (per_frame * mask).sum(-1) / jnp.maximum(mask.sum(-1), 1.0)
 
 
 def lsgan_generator_loss(fake_scores, mask):

@@ -38,6 +38,18 @@ def test_stitching_loss_zero_for_identical_positive_otherwise():
     assert float(LS.stitching_loss(pos, other, jnp.zeros((3, 4), bool))) == 0.0
 
 
+def test_stitching_loss_per_motion_is_each_motions_own_loss():
+    """The latent-pair search ranks rollouts by the same function training minimises, one value each."""
+    pos = jax.random.normal(jax.random.PRNGKey(1), (3, 4, J, 3))
+    other = jax.random.normal(jax.random.PRNGKey(2), (3, 4, J, 3))
+    mask = jnp.array([[True] * 4, [True, True, False, False], [False] * 4])
+    per_motion = LS.stitching_loss(pos, other, mask, reduction="mean", per_motion=True)
+    assert per_motion.shape == (3,) and float(per_motion[2]) == 0.0
+    for i in range(3):
+        np.testing.assert_allclose(per_motion[i], LS.stitching_loss(pos[i], other[i], mask[i], reduction="mean"),
+                                   rtol=1e-6)
+
+
 def test_elementary_terms():
     x = {"rotations": jnp.ones((2, 5, J, 4)), "velocities": jnp.ones((2, 5, 3)), "contacts": jnp.ones((2, 5, 4))}
     mask = jnp.ones((2, 5), bool)
