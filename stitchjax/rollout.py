@@ -169,22 +169,26 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
         f_target, f_dist = _reverse(bwd), length + 1 - 2 * i
     else:
         f_target, f_dist = plan["target"], length + 1 - i
-    gamma = interpolation_weight(config, i + 1, plan["n_forward"], length).astype(dtype)
-    new_carry, new_fwd, g_fwd, inputs = _step(gen_params["forward"], phase_params, config, fwd_carry, fwd,
-                                              f_target, f_dist, gamma, eps_i[0], probe("forward"), truth_fwd)
-    fwd_carry, fwd = _hold(i < plan["n_forward"], (new_carry, new_fwd), (fwd_carry, fwd))
-    out = {"forward": {**fwd, **g_fwd}, "inputs": {"forward": inputs}}
+    out = {"inputs": {}}
+
+    def direction_step(name, carry_d, frame, target, distance, eps, truth):
+        """One step of one generator; it holds its frame once it has made plan["n_<name>"] frames."""
+        count = plan[f"n_{name}"]
+        gamma = interpolation_weight(config, i + 1, count, length).astype(dtype)
+        new_carry, new_frame, gaussians, inputs = _step(gen_params[name], phase_params, config, carry_d, frame,
+                                                        target, distance, gamma, eps, probe(name), truth)
+        carry_d, frame = _hold(i < count, (new_carry, new_frame), (carry_d, frame))
+        out[name] = {**frame, **gaussians}
+        out["inputs"][name] = inputs
+        return carry_d, frame
+
+    fwd_carry, fwd = direction_step("forward", fwd_carry, fwd, f_target, f_dist, eps_i[0], truth_fwd)
     if m.bidirectional:
         if aligned:
             b_target, b_dist = _reverse(fwd), length - 2 * i
         else:
             b_target, b_dist = plan["start"], length + 1 - i
-        gamma = interpolation_weight(config, i + 1, plan["n_backward"], length).astype(dtype)
-        new_carry, new_bwd, g_bwd, inputs = _step(gen_params["backward"], phase_params, config, bwd_carry, bwd,
-                                                  b_target, b_dist, gamma, eps_i[1], probe("backward"), truth_bwd)
-        bwd_carry, bwd = _hold(i < plan["n_backward"], (new_carry, new_bwd), (bwd_carry, bwd))
-        out["backward"] = {**bwd, **g_bwd}
-        out["inputs"]["backward"] = inputs
+        bwd_carry, bwd = direction_step("backward", bwd_carry, bwd, b_target, b_dist, eps_i[1], truth_bwd)
     return (fwd_carry, bwd_carry, fwd, bwd), out
 
 
