@@ -42,11 +42,11 @@ def _time(fn, runs: int) -> tuple[float, float]:
 def bench(config_name: str, length: int, samples: int, runs: int) -> dict:
     import jax
 
-    from stitchjax import bvh, inbetween, sample
+    from stitchjax import bvh, inbetween, sample, trained_model
     from stitchjax import config as config_lib
 
     config = config_lib.load_config(config_name)
-    model = inbetween.random_model(config, seed=0)
+    model = trained_model.random_model(config, seed=0)
     take = bvh.load(sample.sample_files(["subject5"])[0])
     a, b = 100, 100 + length + 1
     keys = dict(start_rotations=take.rotations[[a]], start_positions=take.positions[[a]],

@@ -253,7 +253,7 @@ class JaxInfer:
     """stitchjax inference: `samples` transitions of `length` frames between one pair of keyframes.
 
     Uses the inference API's model-frame entry point ``inbetween.sample_transitions`` (one jitted, vmapped
-    rollout, results copied back to numpy) on ``inbetween.random_model(config)``; falls back to a vmapped
+    rollout, results copied back to numpy) on ``trained_model.random_model(config)``; falls back to a vmapped
     ``rollout.rollout`` when that API is missing.
     """
 
@@ -267,8 +267,8 @@ class JaxInfer:
 
         start, target, offsets = keyframe(0), keyframe(length + 1), data["offsets"][:1, 0]
         try:
-            from stitchjax import inbetween
-            self.model = inbetween.random_model(config, seed=seed)
+            from stitchjax import inbetween, trained_model
+            self.model = trained_model.random_model(config, seed=seed)
             self.params, self.phase_params = self.model.params, self.model.phase_params
             self.api = "inbetween.sample_transitions (random_model weights)"
             self.fn = lambda: inbetween.sample_transitions(self.model, start, target, offsets, length, samples, 1)

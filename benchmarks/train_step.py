@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from stitchjax import config as config_lib
-from stitchjax import parallel, train
+from stitchjax import datasets, parallel, train
 
 
 def peak_rss_mib() -> float:
@@ -94,7 +94,7 @@ def main() -> None:
     config = config_lib.apply_overrides(config_lib.load_config(args.config),
                                         [f"train.batch_size={args.batch}"] + args.overrides)
     mesh = parallel.make_mesh()
-    data, _ = train.load_training_data(config, None)
+    data, _ = datasets.load_training_data(config, None)
     print(f"config {args.config}: batch {args.batch}, transition length {args.length}, window "
           f"{config.data.window} frames; {jax.device_count()} x {jax.devices()[0].device_kind} "
           f"({jax.devices()[0].platform}); jax {jax.__version__}")

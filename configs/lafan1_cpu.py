@@ -46,6 +46,8 @@ def get_config() -> Config:
         max_steps=3000,
         log_every=25,
         checkpoint_every_steps=250,
+        eval_every=250,  # reason: validation (32 test windows, 4 samples, L = 30 and 50) costs ~2 % of the run
+        eval_lengths=(30, 50),
     )
     phase = dataclasses.replace(base.phase, steps=2000)  # reason: converges in a couple of thousand steps
     return dataclasses.replace(base, name="lafan1_cpu", model=model, loss=loss, train=train, phase=phase)

@@ -22,7 +22,7 @@ sys.path.insert(0, str(REPO))
 
 import numpy as np  # noqa: E402
 
-from stitchjax import inbetween, lafan1, metrics, plots  # noqa: E402
+from stitchjax import evaluate, lafan1, metrics, plots, trained_model  # noqa: E402
 from stitchjax.skeleton import forward_kinematics  # noqa: E402
 
 START = 9  # the protocol's start keyframe (DESIGN.md §6)
@@ -31,7 +31,7 @@ START = 9  # the protocol's start keyframe (DESIGN.md §6)
 def window_figures(model, windows, index: int, length: int, samples: int, seed: int, out: pathlib.Path) -> dict:
     """Filmstrip and root paths of ``samples`` transitions of test window ``index``; returns a summary."""
     one = windows[index:index + 1]
-    rotations, positions = inbetween.model_method(model)(one, START, length, samples, seed)  # (S, 1, L, J, .)
+    rotations, positions = evaluate.model_method(model)(one, START, length, samples, seed)  # (S, 1, L, J, .)
     rot_all = np.asarray(one.rotations, np.float64)[0, START:START + length + 2]
     pos_all = np.asarray(one.positions, np.float64)[0, START:START + length + 2]
     motions = []
@@ -93,7 +93,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    model = inbetween.load_model(args.checkpoint)
+    model = trained_model.load_model(args.checkpoint)
     windows = lafan1.test_windows(args.data)
     if not 0 <= args.window < len(windows):
         parser.error(f"--window {args.window}: the test set has {len(windows)} windows (0..{len(windows) - 1})")

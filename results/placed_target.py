@@ -4,8 +4,10 @@
     python results/placed_target.py --checkpoint runs/lafan1_cpu --out results/placed_target
 
 Runs ``bin/inbetween`` from frame --start-frame of --start-bvh to frame --target-frame of --target-bvh,
-the target moved by --offset (cm) and turned by --turn (degrees about the vertical), writing the
-transition alone (``--output transition``). Then it measures, on the BVH files bin/inbetween wrote:
+the target turned by --turn (degrees about the vertical) and moved so that its root lies --offset (cm)
+from the start keyframe's root (``--offset-from start``, the default: a transition that a person can walk),
+or --offset from where its own take has it (``--offset-from file``, bin/inbetween's own convention),
+writing the transition alone (``--output transition``). Then it measures, on the BVH files bin/inbetween wrote:
 
 - end error: the largest distance (cm) between any joint of the last frame and the same joint of the
   placed target keyframe (``stitchjax.conform.place`` of the target take); likewise for the first frame;
@@ -93,12 +95,23 @@ def _truth_files(folder: pathlib.Path) -> list:
     return files
 
 
-def run_inbetween(args, start: pathlib.Path, target: pathlib.Path, out: pathlib.Path) -> list:
+def file_offset(args, start: pathlib.Path, target: pathlib.Path, offset: list, fps: float) -> list:
+    """The offset (cm) to give bin/inbetween (relative to the target take) for --offset-from: "file" keeps
+    --offset; "start" adds the horizontal distance from the target keyframe's root to the start keyframe's."""
+    if args.offset_from == "file":
+        return offset
+    start_take, a = conform.resample(bvh.load(start), fps, args.start_frame)
+    target_take, b = conform.resample(bvh.load(target), fps, args.target_frame)
+    gap = start_take.positions[a, 0] - target_take.positions[b, 0]
+    return [float(offset[0] + gap[0]), float(offset[1]), float(offset[2] + gap[2])]
+
+
+def run_inbetween(args, start: pathlib.Path, target: pathlib.Path, out: pathlib.Path, offset: list) -> list:
     """bin/inbetween --output transition; returns the written sample BVH paths (in sample order)."""
     command = [sys.executable, str(REPO / "bin" / "inbetween"), "--checkpoint", str(args.checkpoint),
                "--bvh", str(start), "--start-frame", str(args.start_frame), "--target-bvh", str(target),
                "--target-frame", str(args.target_frame), "--length", str(args.length),
-               "--target-offset", args.offset, "--target-turn", str(args.turn), "--samples", str(args.samples),
+               "--target-offset=" + ",".join(f"{x:.6f}" for x in offset), "--target-turn", str(args.turn), "--samples", str(args.samples),
                "--search", str(args.search), "--seed", str(args.seed), "--output", "transition", "--out", str(out)]
     proc = subprocess.run(command, capture_output=True, text=True)
     if proc.returncode != 0:
@@ -136,7 +149,7 @@ def figures(samples: list, measured: dict, truth: dict, args, out: pathlib.Path)
               for k, r in enumerate(measured["per_sample"])]
     plots.filmstrip([r[frames] for r in rows], parents, every=1, keyframes=(0, len(frames) - 1), titles=titles,
                     title=f"{args.start_bvh}:{args.start_frame} -> {args.target_bvh}:{args.target_frame} placed "
-                          f"({args.offset} cm, {args.turn:g} deg), L = {args.length}\nroot-speed jumps (cm/frame): "
+                          f"({args.offset} cm from the {args.offset_from}, {args.turn:g} deg), L = {args.length}\nroot-speed jumps (cm/frame): "
                           f"largest in the transition, at the stitch; ground truth's largest {truth['max_jump']:.2f}",
                     path=out / "filmstrip.png")
     plots.error_over_time({f"sample {k}": r["root_speed_cm_per_frame"] for k, r in enumerate(measured["per_sample"])},
@@ -155,6 +168,8 @@ def main(argv=None) -> int:
     parser.add_argument("--target-frame", type=int, default=500)
     parser.add_argument("--length", type=int, default=30, help="generated frames (default 30)")
     parser.add_argument("--offset", default="300,0,0", help="target root offset x,y,z in cm (default 300,0,0)")
+    parser.add_argument("--offset-from", choices=("start", "file"), default="start",
+                        help="--offset from the start keyframe's root (default) or from the target take's own place")
     parser.add_argument("--turn", type=float, default=90.0, help="target turn about the vertical, degrees")
     parser.add_argument("--samples", type=int, default=8)
     parser.add_argument("--search", type=int, default=0)
@@ -173,14 +188,15 @@ def main(argv=None) -> int:
         out = pathlib.Path(args.out)
         if out.exists() and not out.is_dir():
             raise UserError(f"--out {out}: is a file; pass a folder")
-        paths = run_inbetween(args, start, target, out / "inbetween")
+        moved = file_offset(args, start, target, offset, bvh.load(start).fps)
+        paths = run_inbetween(args, start, target, out / "inbetween", moved)
         samples = [bvh.load(p) for p in paths]
         if len(samples) != args.samples or any(m.num_frames != args.length + 2 for m in samples):
             raise UserError(f"bin/inbetween wrote {len(samples)} transitions, expected {args.samples} of "
                             f"{args.length + 2} frames")
         fps = samples[0].fps
         target_take, b = conform.resample(bvh.load(target), fps, args.target_frame)
-        placed = conform.place(target_take, offset, args.turn, pivot=b)[b].global_positions()[0]
+        placed = conform.place(target_take, moved, args.turn, pivot=b)[b].global_positions()[0]
         start_take, a = conform.resample(bvh.load(start), fps, args.start_frame)
         measured = measure(samples, placed, start_take[a].global_positions()[0], args.length)
         truth = ground_truth_jumps(truth_files, fps)
@@ -201,7 +217,8 @@ def main(argv=None) -> int:
         "checkpoint": str(args.checkpoint), "fps": fps, "length": args.length, "samples": args.samples,
         "search": args.search, "seed": args.seed,
         "start": {"file": start.name, "frame": args.start_frame},
-        "target": {"file": target.name, "frame": args.target_frame, "offset_cm": offset, "turn_degrees": args.turn},
+        "target": {"file": target.name, "frame": args.target_frame, "offset_cm": offset, "offset_from": args.offset_from,
+                   "offset_from_target_take_cm": moved, "turn_degrees": args.turn},
         "transition": measured, "ground_truth": truth, "pass": bool(exact and smooth), "verdict": verdict,
         "units": {"end_error_cm": "cm (largest joint distance)", "start_error_cm": "cm",
                   "root_speed_cm_per_frame": "cm/frame", "max_jump": "cm/frame per frame (|speed change|)",

@@ -21,7 +21,7 @@ REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from stitchjax import config as config_lib  # noqa: E402
-from stitchjax import evaluate, inbetween, lafan1, skeleton  # noqa: E402
+from stitchjax import evaluate, lafan1, skeleton, tables, trained_model  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -32,19 +32,19 @@ def main(argv=None) -> int:
     parser.add_argument("--samples", type=int, default=10)
     parser.add_argument("--json", required=True)
     args = parser.parse_args(argv)
-    model = inbetween.load_model(args.checkpoint)
+    model = trained_model.load_model(args.checkpoint)
     methods, settings = {}, {}
     for blend in config_lib.CHOICES[("model", "variance_blend")]:
         config = config_lib.apply_overrides(model.config, [f"model.variance_blend={blend}"])
         name = f"model_{blend}"
-        methods[name] = inbetween.model_method(dataclasses.replace(model, config=config))
+        methods[name] = evaluate.model_method(dataclasses.replace(model, config=config))
         settings[name] = f"variance_blend={blend}" + (" (trained)" if blend == model.config.model.variance_blend
                                                         else " (at sampling only)")
     windows = lafan1.test_windows(args.data)
     stats = lafan1.train_statistics(args.data)
     results = evaluate.evaluate_protocol(methods, windows, stats, lengths=tuple(int(x) for x in args.lengths.split(",")),
                                          samples=args.samples, feet=tuple(skeleton.LAFAN1_FEET), settings=settings)
-    print(evaluate.format_protocol_table(results))
+    print(tables.format_protocol_table(results))
     pathlib.Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     pathlib.Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
     return 0

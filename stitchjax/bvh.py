@@ -186,6 +186,29 @@ class _Tokens:
         return values
 
 
+def _parse_channels(tokens: _Tokens, name: str) -> tuple:
+    """The canonical channel names of joint `name`'s CHANNELS line (the next token is CHANNELS)."""
+    _, line = tokens.next("CHANNELS")
+    count_tok, _ = tokens.next("channel count")
+    if not count_tok.isdigit():
+        raise tokens.error(f"CHANNELS of joint {name!r}: expected a count, found {count_tok!r}", line)
+    found = []
+    for _ in range(int(count_tok)):
+        tok, cline = tokens.next(f"{count_tok} channel names for joint {name!r}")
+        if tok.lower() not in _CANONICAL:
+            hint = (" (fewer channel names than the count?)" if cline != line
+                    else "; channels are X/Y/Z position and X/Y/Z rotation")
+            raise tokens.error(f"joint {name!r}: unknown channel {tok!r}{hint}", cline)
+        found.append(_CANONICAL[tok.lower()])
+    extra = tokens.rest_of_line(line)
+    if extra:
+        raise tokens.error(f"joint {name!r}: CHANNELS {count_tok} is followed by more than "
+                           f"{count_tok} names ({' '.join(extra)})", line)
+    if len(set(found)) != len(found):
+        raise tokens.error(f"joint {name!r} lists a channel twice: {' '.join(found)}", line)
+    return tuple(found)
+
+
 def _parse_hierarchy(tokens: _Tokens):
     """Returns names, parents, offsets, channels (canonical names), end sites."""
     names, parents, offsets, channels, end_sites = [], [], [], [], []
@@ -202,28 +225,7 @@ def _parse_hierarchy(tokens: _Tokens):
         tokens.expect("{")
         tokens.expect("OFFSET")
         offsets.append(tokens.floats(3, f"OFFSET of joint {name!r}"))
-        chans = ()
-        if (tokens.peek() or "").upper() == "CHANNELS":
-            _, line = tokens.next("CHANNELS")
-            count_tok, _ = tokens.next("channel count")
-            if not count_tok.isdigit():
-                raise tokens.error(f"CHANNELS of joint {name!r}: expected a count, found {count_tok!r}",
-                                   line)
-            found = []
-            for _ in range(int(count_tok)):
-                tok, cline = tokens.next(f"{count_tok} channel names for joint {name!r}")
-                if tok.lower() not in _CANONICAL:
-                    hint = (" (fewer channel names than the count?)" if cline != line
-                            else "; channels are X/Y/Z position and X/Y/Z rotation")
-                    raise tokens.error(f"joint {name!r}: unknown channel {tok!r}{hint}", cline)
-                found.append(_CANONICAL[tok.lower()])
-            extra = tokens.rest_of_line(line)
-            if extra:
-                raise tokens.error(f"joint {name!r}: CHANNELS {count_tok} is followed by more than "
-                                   f"{count_tok} names ({' '.join(extra)})", line)
-            if len(set(found)) != len(found):
-                raise tokens.error(f"joint {name!r} lists a channel twice: {' '.join(found)}", line)
-            chans = tuple(found)
+        chans = _parse_channels(tokens, name) if (tokens.peek() or "").upper() == "CHANNELS" else ()
         channels.append(chans)
         while True:
             tok, line = tokens.next(f"'}}' closing joint {name!r}")

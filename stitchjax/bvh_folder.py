@@ -31,9 +31,9 @@ import re
 
 import numpy as np
 
-from stitchjax import bvh, cache, conform, h36m
+from stitchjax import bvh, cache, conform
 from stitchjax import rotations as R
-from stitchjax.skeleton import LAFAN1_FEET, LAFAN1_JOINTS, Skeleton, forward_kinematics
+from stitchjax.skeleton import Skeleton, forward_kinematics
 from stitchjax.windows import FACING_FRAME, Stats, Windows, clip_windows, concatenate_clips, window_statistics
 
 __all__ = ["BVHFolderError", "Resolved", "list_files", "split_files", "resolve", "load_take", "load_windows",
@@ -200,32 +200,18 @@ def resolve(motion, data) -> Resolved:
 
 
 def skeleton_facts(data_dir, data) -> dict | None:
-    """What inference must know of a model's training skeleton, as saved in its checkpoint (JSON-able).
-
-    Returns {"joint_names": [J names], "feet": [C joint indices], "feet_names": [C names], "up_axis": the
-    files' up axis ("+y", "+z", ...), "forward_axis": the root's local forward axis, "unit_scale": cm per
-    file unit}. ``data.dataset`` "lafan1" / "h36m": their fixed facts (both +Y up and in cm once loaded);
-    "bvh_folder": resolved as :func:`load_windows` resolves them, on the first training file under
-    ``data_dir`` (None when ``data_dir`` is None: arrays prepared elsewhere, facts unknown).
-    """
-    dataset = getattr(data, "dataset", "lafan1")
-    if dataset == "lafan1":
-        names, feet, up, forward, scale = LAFAN1_JOINTS, LAFAN1_FEET, "+y", "+y", 1.0
-    elif dataset == "h36m":
-        names, feet, up, scale = h36m.JOINT_NAMES, h36m.FEET, "+y", 1.0
-        forward = conform.axis_name(h36m.FORWARD_AXIS)
-    elif dataset == "bvh_folder":
-        if data_dir is None:
-            return None
-        motion = bvh.load(split_files(data_dir, data, "train")[0])
-        resolved = resolve(motion, data)
-        names, feet, scale = motion.skeleton.names, resolved.feet, resolved.unit_scale
-        up, forward = conform.axis_name(resolved.up), conform.axis_name(resolved.forward)
-    else:
+    """The skeleton facts of a BVH-folder run (``stitchjax.datasets.Dataset.skeleton_facts``), resolved as
+    :func:`load_windows` resolves them, on the first training file under ``data_dir`` (None when
+    ``data_dir`` is None: arrays prepared elsewhere, facts unknown)."""
+    if data_dir is None:
         return None
-    names = [str(n) for n in names]
+    motion = bvh.load(split_files(data_dir, data, "train")[0])
+    resolved = resolve(motion, data)
+    names = [str(n) for n in motion.skeleton.names]
+    feet = resolved.feet
     return {"joint_names": names, "feet": [int(j) for j in feet], "feet_names": [names[int(j)] for j in feet],
-            "up_axis": up, "forward_axis": forward, "unit_scale": float(scale)}
+            "up_axis": conform.axis_name(resolved.up), "forward_axis": conform.axis_name(resolved.forward),
+            "unit_scale": float(resolved.unit_scale)}
 
 
 def _declared_axis(text: str, field: str) -> np.ndarray:

@@ -1,7 +1,7 @@
 """Bring a take onto a model's (or a dataset's) terms: frame rate, units, up axis, joints, placement.
 
 Pure numpy functions on :class:`stitchjax.bvh.Motion` (float64), used by the generic BVH-folder
-dataset (``stitchjax.bvh_folder``) on load and by ``stitchjax.inbetween`` on keyframes from any file:
+dataset (``stitchjax.bvh_folder``) on load and by ``stitchjax.takes`` on keyframes from any file:
 
 - :func:`resample`: a take at another frame rate, slerp for rotations and linear for positions, on a
   time grid anchored at one frame so that frame is kept exactly;
@@ -88,18 +88,23 @@ def scale_ratio(offsets, reference_offsets) -> float:
 
 
 def check_scale(offsets, reference_offsets, what: str, reference: str, fix: str,
-                tolerance: float = SCALE_TOLERANCE) -> float:
+                tolerance: float = SCALE_TOLERANCE, applied: float = 1.0) -> float:
     """Refuse a skeleton whose bones differ in length from the reference's by more than ``tolerance``.
 
     Returns the ratio (length / reference length). The message names ``what``, the measured ratio, the
-    factor that fixes it and ``fix`` (how to apply it, e.g. "bin/inbetween --scale {factor}").
+    factor that fixes it and ``fix`` (how to apply it, e.g. "bin/inbetween --scale {factor}"), where
+    {factor} is the whole factor to ask for: ``applied`` (the scale the offsets already had applied) times
+    the correction, so a second try with it is right.
     """
     ratio = scale_ratio(offsets, reference_offsets)
     if abs(np.log(ratio)) > np.log1p(tolerance):
         factor = 1.0 / ratio
+        whole = float(applied) * factor
+        applied_note = f" on top of the scale {float(applied):.6g} already applied" if applied != 1.0 else ""
         raise ConformError(
             f"{what} has bones {ratio:.4g} times as long as {reference} (median over bones): its units differ "
-            f"(e.g. metres vs centimetres); rescale it by {factor:.6g}: {fix.format(factor=f'{factor:.6g}')}")
+            f"(e.g. metres vs centimetres); rescale it by {factor:.6g}{applied_note}: "
+            f"{fix.format(factor=f'{whole:.6g}')}")
     return ratio
 
 

@@ -21,17 +21,19 @@ A *method* is any callable with the signature of ``Method.__call__``::
     returns      local rotations (S, B, L, J, 4) and local positions (S, B, L, J, 3), S = 1 or num_samples
 
 ``zero_velocity_method`` and ``interpolation_method`` are the baselines in that form; a trained model
-becomes one through ``stitchjax.inbetween`` (see bin/evaluate).
+becomes one through :func:`model_method` (see bin/evaluate).
 """
 from __future__ import annotations
 
+import dataclasses
 import sys
 from typing import TYPE_CHECKING, Callable, Mapping, Protocol, Sequence
 
 import numpy as np
 
-from stitchjax import baselines, metrics
+from stitchjax import baselines, inbetween, metrics
 from stitchjax.skeleton import forward_kinematics
+from stitchjax.trained_model import InbetweenError, Model, load_model
 
 if TYPE_CHECKING:  # pragma: no cover
     from stitchjax.windows import Windows
@@ -152,18 +154,6 @@ def benchmark_baselines(
 BENCHMARK_SETTINGS = {"zerov": "frame 9 held (official)", "interp": "slerp/lerp 9..10+n (official)"}
 
 
-def format_benchmark_table(results: Mapping) -> str:
-    """The official benchmark in the table layout of :func:`format_protocol_table` (one row per length and
-    method, one column per metric with its unit)."""
-    return format_protocol_table(results, title=f"LAFAN1 benchmark (official L2Q / L2P / NPSS, float64) on "
-                                                f"{results['n_windows']} test windows")
-
-
-def print_benchmark_table(results: Mapping, file=None) -> None:
-    """Print ``format_benchmark_table(results)`` (to stdout by default)."""
-    print(format_benchmark_table(results), file=file or sys.stdout)
-
-
 # --------------------------------------------------------------------------- methods
 
 
@@ -184,6 +174,42 @@ def interpolation_method(windows, start, length, num_samples, seed):
 
 
 BASELINE_METHODS: dict[str, Callable] = {"interp": interpolation_method, "zerov": zero_velocity_method}
+
+
+def model_method(model, search: int = 0, noise_scale: float = 1.0):
+    """The model as a ``Method``:
+    ``method(windows, start, length, num_samples, seed) -> (rotations (S, B, L, J, 4), positions (S, B, L, J, 3))``.
+
+    model: a :class:`stitchjax.trained_model.Model` or a checkpoint path (loaded once). The method uses frames
+    ``start`` and ``start + length + 1`` of each window and their foot-contact labels from ``windows.contacts``
+    (the keyframes' character state, as in training); it returns the L generated frames only.
+    search: latent pairs per sample (0: none); noise_scale: factor on the latent noise.
+    """
+    if not isinstance(model, Model):
+        model = load_model(model)
+
+    def method(windows, start, length, num_samples, seed):
+        inbetween._check_skeleton(model, windows.skeleton)
+        target = start + length + 1
+        if not 0 <= start < target < windows.rotations.shape[1]:
+            raise InbetweenError(f"keyframes {start} and {target} are outside windows of "
+                                 f"{windows.rotations.shape[1]} frames")
+        rot, pos = np.asarray(windows.rotations), np.asarray(windows.positions)
+        contacts = np.asarray(windows.contacts)
+        rotations, positions, _ = inbetween.transitions_in_frame(
+            model, rot[:, start], pos[:, start], contacts[:, start], rot[:, target], pos[:, target],
+            contacts[:, target], length, num_samples, seed, search, noise_scale)
+        # (B, S, L+2, ...) -> generated frames, samples first: (S, B, L, ...)
+        return (np.swapaxes(rotations[:, :, 1:-1], 0, 1), np.swapaxes(positions[:, :, 1:-1], 0, 1))
+
+    method.model = model
+    return method
+
+
+def evaluation_method(checkpoint, search: int = 0, noise_scale: float = 1.0):
+    """:func:`model_method` of a checkpoint folder (``checkpoint`` may also be a loaded ``Model``)."""
+    model = checkpoint if isinstance(checkpoint, Model) else load_model(checkpoint)
+    return model_method(model, search=search, noise_scale=noise_scale)
 
 
 # --------------------------------------------------------------------------- protocol
@@ -215,6 +241,102 @@ class _Accumulator:
             "l2p": s["l2p"] / n,
             "l2q": s["l2q"] / n,
         }
+
+    def add(self, q, p, gt_q, gt_p, target_pose, ground, truth: "_Truth") -> None:
+        """Add one chunk of a method's FK predictions q, p (S, b, L, J, ...) against the ground truth
+        gt_q, gt_p (b, L, J, ...); target_pose (1, b, 1, J, 3) ends the foot-slide track."""
+        s, length = self.sums, p.shape[2]
+        displacement = metrics.displacement_per_window(p, gt_p)  # (S, b)
+        s["ade"] += float(displacement.sum())
+        s["ade_best"] += float(displacement.min(axis=0).sum())
+        s["slde"] += float(metrics.displacement_per_window(p[:, :, -1:], gt_p[:, -1:]).sum())
+        s["apd"] += float(metrics.apd_per_window(p).sum())
+        s["spread"] += float(metrics.joint_spread_per_window(p).sum())
+        s["spread_mid"] += float(metrics.joint_spread_per_window(p, frame=length // 2).sum())
+        s["npss"] += float(metrics.npss_parts(q, gt_q)[0].sum())
+        s["l2p"] += float(metrics.l2p_per_window(p, gt_p, truth.mean, truth.std).sum())
+        s["l2q"] += float(metrics.l2q_per_window(q, gt_q).sum())
+        full = np.concatenate([p, np.broadcast_to(target_pose, p[:, :, :1].shape)], axis=2)
+        weighted, count = metrics.foot_slide_parts(full, ground, **truth.slide_kw)
+        s["slide"] += float(weighted.sum())
+        s["slide_count"] += float(count.sum())
+        self.count += displacement.size
+        self.windows += displacement.shape[1]
+
+
+@dataclasses.dataclass(frozen=True)
+class _Truth:
+    """What every length and method of one protocol run is scored against."""
+
+    parents: tuple
+    rotations: np.ndarray  # (N, T, J, 4) global rotations of the windows
+    positions: np.ndarray  # (N, T, J, 3) global positions
+    ground: np.ndarray  # each window's ground height (lowest ground-truth foot height)
+    mean: np.ndarray  # (J*3,) training statistics, for L2P
+    std: np.ndarray
+    slide_kw: dict  # feet, metres_per_unit, up_axis of metrics.foot_slide_parts
+
+
+def _check_protocol_lengths(lengths: Sequence[int], start: int, num_frames: int) -> None:
+    for length in lengths:
+        if start + length + 1 >= num_frames or length < 1:
+            raise ValueError(
+                f"transition length {length} with start keyframe {start} needs windows of at least "
+                f"{start + length + 2} frames; these have {num_frames}"
+            )
+
+
+def _predict(name: str, method: Callable, windows, start: int, length: int, samples: int, seed: int,
+             parents: tuple, expected: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """Global rotations and positions (S, b, L, J, ...) of one method's transitions on a chunk of windows,
+    checked to be (S,) + ``expected`` (b, L, J) + (4,) and (3,)."""
+    pred_r, pred_p = method(windows, start, length, samples, seed)
+    pred_r, pred_p = _as_f64(pred_r), _as_f64(pred_p)
+    if pred_r.ndim != 5 or pred_r.shape[1:4] != expected or pred_p.shape[:4] != pred_r.shape[:4]:
+        raise ValueError(
+            f"method {name!r} returned rotations {pred_r.shape} and positions {pred_p.shape}; "
+            f"expected (S, {expected[0]}, {length}, {expected[2]}, 4) and (S, ..., 3)"
+        )
+    return forward_kinematics(pred_r, pred_p, parents)
+
+
+def _progress_bar(total: int):
+    """A progress bar on stderr counting method calls (one per method, chunk and length)."""
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc="evaluate", unit="batch", file=sys.stderr)
+
+
+def _protocol_length(methods: Mapping[str, Callable], windows: "Windows", truth: _Truth, chunks: list,
+                     length: int, start: int, samples: int, seed: int, metres_per_unit: float, bar) -> dict:
+    """One length's entry of :func:`evaluate_protocol`: {name: {metric: value}, "ground_truth": {...}}."""
+    target = start + length + 1
+    scored = slice(start + 1, target)
+    accumulators = {name: _Accumulator() for name in methods}
+    npss_power = 0.0
+    gt_slide, gt_slide_count = 0.0, 0.0
+    for chunk_index, chunk in enumerate(chunks):
+        gt_q, gt_p = truth.rotations[chunk, scored], truth.positions[chunk, scored]
+        ground = truth.ground[chunk]
+        _, power = metrics.npss_parts(gt_q, gt_q)
+        npss_power += float(power.sum())
+        weighted, count = metrics.foot_slide_parts(truth.positions[chunk, start + 1 : target + 1], ground,
+                                                   **truth.slide_kw)
+        gt_slide += float(weighted.sum())
+        gt_slide_count += float(count.sum())
+        chunk_windows = windows[chunk]
+        call_seed = int(seed) * 1_000_003 + length * 10_007 + chunk_index
+        target_pose = truth.positions[chunk, target][None, :, None]  # (1, b, 1, J, 3)
+        expected = (gt_q.shape[0], length, gt_q.shape[2])
+        for name, method in methods.items():
+            q, p = _predict(name, method, chunk_windows, start, length, samples, call_seed, truth.parents,
+                            expected)
+            accumulators[name].add(q, p, gt_q, gt_p, target_pose, ground, truth)
+            if bar is not None:
+                bar.update(1)
+    entry = {name: acc.result(npss_power, metres_per_unit) for name, acc in accumulators.items()}
+    entry["ground_truth"] = {"foot_slide": gt_slide / gt_slide_count if gt_slide_count > 0 else 0.0}
+    return entry
 
 
 def evaluate_protocol(
@@ -254,74 +376,18 @@ def evaluate_protocol(
     positions_all = _as_f64(windows.positions)
     num_windows, num_frames = rotations_all.shape[:2]
     parents = _parents(windows)
-    for length in lengths:
-        if start + length + 1 >= num_frames or length < 1:
-            raise ValueError(
-                f"transition length {length} with start keyframe {start} needs windows of at least "
-                f"{start + length + 2} frames; these have {num_frames}"
-            )
+    _check_protocol_lengths(lengths, start, num_frames)
     mean, std = _as_f64(stats.mean), _as_f64(stats.std)
     gt_rot_all, gt_pos_all = forward_kinematics(rotations_all, positions_all, parents)
     ground_all = metrics.ground_heights(gt_pos_all, feet, up_axis)
     slide_kw = dict(feet=feet, metres_per_unit=metres_per_unit, up_axis=up_axis)
+    truth = _Truth(parents, gt_rot_all, gt_pos_all, ground_all, mean, std, slide_kw)
 
     chunks = [slice(i, min(i + batch_size, num_windows)) for i in range(0, num_windows, batch_size)]
-    steps = [(length, c) for length in lengths for c in range(len(chunks))]
-    results = {}
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(steps) * len(methods), desc="evaluate", unit="batch", file=sys.stderr)
-    for length in lengths:
-        target = start + length + 1
-        scored = slice(start + 1, target)
-        accumulators = {name: _Accumulator() for name in methods}
-        npss_power = 0.0
-        gt_slide, gt_slide_count = 0.0, 0.0
-        for chunk_index, chunk in enumerate(chunks):
-            gt_q, gt_p = gt_rot_all[chunk, scored], gt_pos_all[chunk, scored]
-            ground = ground_all[chunk]
-            _, power = metrics.npss_parts(gt_q, gt_q)
-            npss_power += float(power.sum())
-            weighted, count = metrics.foot_slide_parts(gt_pos_all[chunk, start + 1 : target + 1], ground, **slide_kw)
-            gt_slide += float(weighted.sum())
-            gt_slide_count += float(count.sum())
-            chunk_windows = windows[chunk]
-            call_seed = int(seed) * 1_000_003 + length * 10_007 + chunk_index
-            for name, method in methods.items():
-                pred_r, pred_p = method(chunk_windows, start, length, samples, call_seed)
-                pred_r, pred_p = _as_f64(pred_r), _as_f64(pred_p)
-                expected = (gt_q.shape[0], length, gt_q.shape[2])
-                if pred_r.ndim != 5 or pred_r.shape[1:4] != expected or pred_p.shape[:4] != pred_r.shape[:4]:
-                    raise ValueError(
-                        f"method {name!r} returned rotations {pred_r.shape} and positions {pred_p.shape}; "
-                        f"expected (S, {expected[0]}, {length}, {expected[2]}, 4) and (S, ..., 3)"
-                    )
-                q, p = forward_kinematics(pred_r, pred_p, parents)  # (S, b, L, J, ...)
-                acc = accumulators[name]
-                displacement = metrics.displacement_per_window(p, gt_p)  # (S, b)
-                acc.sums["ade"] += float(displacement.sum())
-                acc.sums["ade_best"] += float(displacement.min(axis=0).sum())
-                acc.sums["slde"] += float(metrics.displacement_per_window(p[:, :, -1:], gt_p[:, -1:]).sum())
-                acc.sums["apd"] += float(metrics.apd_per_window(p).sum())
-                acc.sums["spread"] += float(metrics.joint_spread_per_window(p).sum())
-                acc.sums["spread_mid"] += float(metrics.joint_spread_per_window(p, frame=length // 2).sum())
-                acc.sums["npss"] += float(metrics.npss_parts(q, gt_q)[0].sum())
-                acc.sums["l2p"] += float(metrics.l2p_per_window(p, gt_p, mean, std).sum())
-                acc.sums["l2q"] += float(metrics.l2q_per_window(q, gt_q).sum())
-                target_pose = gt_pos_all[chunk, target][None, :, None]  # (1, b, 1, J, 3)
-                full = np.concatenate([p, np.broadcast_to(target_pose, p[:, :, :1].shape)], axis=2)
-                weighted, count = metrics.foot_slide_parts(full, ground, **slide_kw)
-                acc.sums["slide"] += float(weighted.sum())
-                acc.sums["slide_count"] += float(count.sum())
-                acc.count += displacement.size
-                acc.windows += displacement.shape[1]
-                if bar is not None:
-                    bar.update(1)
-        entry = {name: acc.result(npss_power, metres_per_unit) for name, acc in accumulators.items()}
-        entry["ground_truth"] = {"foot_slide": gt_slide / gt_slide_count if gt_slide_count > 0 else 0.0}
-        results[str(length)] = entry
+    bar = _progress_bar(len(lengths) * len(chunks) * len(methods)) if progress else None
+    results = {str(length): _protocol_length(methods, windows, truth, chunks, length, start, samples, seed,
+                                             metres_per_unit, bar)
+               for length in lengths}
     if bar is not None:
         bar.close()
     return {
@@ -331,42 +397,3 @@ def evaluate_protocol(
         "units": _units(metres_per_unit),
         "settings": {name: str((settings or {}).get(name, "")) for name in methods},
     }
-
-
-def format_protocol_table(results: Mapping, title: str | None = None) -> str:
-    """One row per (length, method), one column per metric, units in the header (4 decimals), a units
-    legend below. ``results``: as :func:`evaluate_protocol` or :func:`benchmark_baselines` return them."""
-    units = results.get("units", {})
-    short = {"m": "m", "cm/frame": "cm/f", "cm": "cm"}
-    cols = [(k, f"{k} ({short.get(units.get(k, '').split(' ')[0], '-')})") for k in METRIC_KEYS if k in _first_row(results)]
-    settings = results.get("settings", {})
-    width = max([12] + [len(n) for n in settings])
-    setting_width = max([7] + [len(v) for v in settings.values()])
-    header = f"{'L':>3} {'method':<{width}} {'setting':<{setting_width}}" + "".join(f" {title:>15}" for _, title in cols)
-    if title is None:
-        title = f"Protocol on {results['n_windows']} windows, {results['samples']} samples per window"
-    lines = [title, header, "-" * len(header)]
-    for length, entry in results["lengths"].items():
-        for name, values in entry.items():
-            if name == "ground_truth":
-                continue
-            lines.append(
-                f"{length:>3} {name:<{width}} {settings.get(name, ''):<{setting_width}}"
-                + "".join(f" {values.get(k, float('nan')):>15.4f}" for k, _ in cols)
-            )
-        gt = entry.get("ground_truth", {})
-        if "foot_slide" in gt:
-            cells = "".join(
-                f" {gt['foot_slide']:>15.4f}" if k == "foot_slide" else f" {'':>15}" for k, _ in cols
-            )
-            lines.append(f"{length:>3} {'ground_truth':<{width}} {'':<{setting_width}}" + cells)
-    lines.append("units: " + "; ".join(f"{k} {units[k]}" for k, _ in cols if k in units))
-    return "\n".join(lines)
-
-
-def _first_row(results: Mapping) -> dict:
-    for entry in results["lengths"].values():
-        for name, values in entry.items():
-            if name != "ground_truth":
-                return values
-    return {}

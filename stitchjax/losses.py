@@ -4,6 +4,8 @@ Overall (paper Eq. 9, weights in ``config.loss``)::
 
     L = L_state + 1.0 L_kl + 0.5 L_stitch + 0.5 L_fk + 0.1 L_D + 0.1 L_G
 
+Optional, not in the paper: ``loss.foot_skate_weight`` x :func:`foot_skate_loss`.
+
 L_kl: with ``model.posterior="next_frame"`` KL(q || p) of the posterior against the latent-interpolation
 prior (``loss.free_bits``, warm-up ``loss.kl_warmup_steps``, optional ``loss.prior_kl_weight`` KL(p || N(0, I)));
 with "none" the paper's KL(p || N(0, I)).
@@ -23,14 +25,15 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from stitchjax import datasets, networks
 from stitchjax import features as F
-from stitchjax import networks
 from stitchjax import rollout as rollout_lib
 
 __all__ = [
     "masked_mean", "state_loss", "kl_loss", "fk_loss", "stitching_loss", "lsgan_generator_loss",
     "lsgan_discriminator_loss", "disc_features", "direction_targets", "generator_loss", "gaussian_kl",
-    "posterior_kl_loss", "kl_warmup", "adversarial_generator_terms",
+    "posterior_kl_loss", "kl_warmup", "adversarial_generator_terms", "foot_skate_loss", "generator_rollouts",
+    "generator_objective",
     "discriminator_loss",
 ]
 
@@ -116,6 +119,32 @@ def stitching_loss(pos_fwd, pos_bwd, mask, position_scale: float = 1.0, reductio
     return (per_frame * mask).sum(-1) / jnp.maximum(mask.sum(-1), 1.0)
 
 
+def foot_skate_loss(global_positions, contacts, mask, feet, position_scale: float, reduction: str = "sum"):
+    """Foot skate: L1 movement of the contact joints from frame t - 1 to frame t, on the frames t where the
+    ground truth has that joint in contact, / position_scale, mean over valid frames (not in the paper).
+
+    global_positions (..., T, J, 3) generated motion; contacts (..., T, C) ground-truth contact labels of the
+    same frames (0 / 1); mask (..., T) valid frames; feet: the C joint indices of the contact channels.
+    Zero when every foot in contact stays where it was.
+    """
+    feet_positions = global_positions[..., list(feet), :]
+    step = (feet_positions[..., 1:, :, :] - feet_positions[..., :-1, :, :]) / position_scale
+    weighted = step * contacts[..., 1:, :, None]
+    valid = mask[..., 1:] & mask[..., :-1]
+    return masked_mean(_norm1(weighted, reduction, (-2, -1)), valid)
+
+
+def _foot_skate_term(out, batch, config):
+    """loss.foot_skate_weight's term on the stitched motion `out`, with the dataset's feet."""
+    feet = datasets.get(config.data.dataset).feet
+    if feet is None:
+        raise ValueError(f"loss.foot_skate_weight needs a dataset with fixed feet; {config.data.dataset!r} "
+                         "reads them from its files (set loss.foot_skate_weight=0)")
+    t = out["global_positions"].shape[1]
+    return foot_skate_loss(out["global_positions"], batch["contacts"][:, :t], out["mask"], feet,
+                           config.data.position_scale, config.loss.reduction)
+
+
 def lsgan_generator_loss(fake_scores, mask):
     """Paper Eq. 7: 1/2 E[(D(G(z)) - 1)^2] over valid window positions."""
     return 0.5 * masked_mean(jnp.square(fake_scores - 1.0), mask)
@@ -194,27 +223,28 @@ def _overlap_stitching_loss(out, config):
                           config.data.position_scale, config.loss.reduction)
 
 
-def generator_loss(params, phase_params, batch, key, config, length, kl_scale=1.0):
-    """Generator objective for one batch (paper Eq. 9 without L_D).
+def generator_rollouts(params, phase_params, batch, key, config, length) -> tuple[dict, dict]:
+    """The rollouts the generator objective scores: (out, sampled).
 
-    Args:
-      params: {"forward", "backward", "disc_short", "disc_long"}.
-      phase_params: frozen phase network params (or None: zero phase features).
-      batch: dict from ``features.prepare_dataset`` with leading (B, T); T - 2 is the maximum length.
-      key: PRNG key; config: Config (static); length: traced int transition length.
-      kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`).
-    One rollout (z from the posterior when ``model.posterior`` has one) gives the state, FK and KL terms; with
-    ``loss.prior_rollout`` a second rollout with z from the prior gives the stitching and adversarial terms
-    (else the first one does).
-    Returns:
-      (total, terms, generated): total scalar; terms dict of scalars "state", "kl", "kl_prior", "fk",
-      "stitch", "adv_g", "adv_g_short", "adv_g_long", "rotation", "velocity", "contact" (and per-direction
-      "state_forward", ...); generated = {"features" (B, T, F) stop-gradient discriminator input of
-      the stitched motion the adversarial terms saw, "mask" (B, T)} for :func:`discriminator_loss`.
+    out: ``rollout.rollout_batch`` of the batch, z from the posterior when ``model.posterior`` has one (the
+    state, FK and KL terms); sampled: the motion the stitching and adversarial terms see, ``out`` itself
+    unless ``loss.prior_rollout`` adds a second rollout with z from the prior.
     """
-    lc = config.loss
     posterior_key, prior_key = jax.random.split(key)
     out = rollout_lib.rollout_batch(params, phase_params, batch, posterior_key, config, length)
+    if config.loss.prior_rollout and config.model.posterior != "none":
+        return out, rollout_lib.rollout_batch(params, phase_params, batch, prior_key, config, length, posterior=False)
+    return out, out
+
+
+def generator_objective(params, out, sampled, batch, config, length, kl_scale=1.0):
+    """Generator objective (paper Eq. 9 without L_D) of the rollouts of :func:`generator_rollouts`.
+
+    params: the discriminators' params {"disc_short", "disc_long"} (others ignored); batch: the ground truth;
+    kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`).
+    Returns (total, terms, generated) as :func:`generator_loss`.
+    """
+    lc = config.loss
     n = out["forward"]["mask"].shape[1]
     directions = ["forward"] + (["backward"] if config.model.bidirectional else [])
     terms = {}
@@ -224,21 +254,43 @@ def generator_loss(params, phase_params, batch, key, config, length, kl_scale=1.
             terms[f"{term}_{name}"] = value
     for term in ("state", "kl", "kl_penalty", "kl_prior", "fk", "rotation", "velocity", "contact"):
         terms[term] = sum(terms[f"{term}_{d}"] for d in directions) / len(directions)
-    sampled = out
-    if lc.prior_rollout and config.model.posterior != "none":
-        sampled = rollout_lib.rollout_batch(params, phase_params, batch, prior_key, config, length, posterior=False)
+    if sampled is not out:
         terms["stitch_posterior"] = jax.lax.stop_gradient(_overlap_stitching_loss(out, config))
     terms["stitch"] = _overlap_stitching_loss(sampled, config)
     terms.update(adversarial_generator_terms(params, sampled, config))
+    if lc.foot_skate_weight:
+        terms["foot_skate"] = _foot_skate_term(out, batch, config)
     kl_weight = lc.kl_weight * kl_scale
     prior_kl = lc.prior_kl_weight * terms["kl_prior"] if config.model.posterior != "none" else 0.0
     total = (terms["state"] + kl_weight * terms.pop("kl_penalty") + prior_kl + lc.stitch_weight * terms["stitch"]
-             + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"])
+             + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"]
+             + lc.foot_skate_weight * terms.get("foot_skate", 0.0))
     for name in directions:
         terms.pop(f"kl_penalty_{name}")
     fake = disc_features(sampled["global_positions"], sampled["root_positions"], config)
     generated = {"features": jax.lax.stop_gradient(fake), "mask": sampled["mask"]}
     return total, terms, generated
+
+
+def generator_loss(params, phase_params, batch, key, config, length, kl_scale=1.0):
+    """Generator objective for one batch (paper Eq. 9 without L_D): :func:`generator_rollouts` (the
+    train step's one rollout) scored by :func:`generator_objective`.
+
+    Args:
+      params: {"forward", "backward", "disc_short", "disc_long"}.
+      phase_params: frozen phase network params (or None: zero phase features).
+      batch: dict from ``features.prepare_dataset`` with leading (B, T); T - 2 is the maximum length.
+      key: PRNG key; config: Config (static); length: traced int transition length.
+      kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`).
+    Returns:
+      (total, terms, generated): total scalar; terms dict of scalars "state", "kl", "kl_prior", "fk",
+      "stitch", "adv_g", "adv_g_short", "adv_g_long", "rotation", "velocity", "contact" (and per-direction
+      "state_forward", ...; "foot_skate" with ``loss.foot_skate_weight``); generated = {"features" (B, T, F)
+      stop-gradient discriminator input of the stitched motion the adversarial terms saw, "mask" (B, T)}
+      for :func:`discriminator_loss`.
+    """
+    out, sampled = generator_rollouts(params, phase_params, batch, key, config, length)
+    return generator_objective(params, out, sampled, batch, config, length, kl_scale)
 
 
 def discriminator_loss(params, phase_params, batch, key, config, length, generated=None):

@@ -211,14 +211,9 @@ def ground_heights(global_positions, feet, up_axis: int = 1) -> np.ndarray:
     return heights.min(axis=(-2, -1))
 
 
-def foot_slide_parts(
-    global_positions,
-    ground,
-    feet,
-    metres_per_unit: float = LAFAN1_METRES_PER_UNIT,
-    height_threshold_cm: float = FOOT_HEIGHT_THRESHOLD_CM,
-    up_axis: int = 1,
-) -> tuple[np.ndarray, np.ndarray]:
+def foot_slide_parts(global_positions, ground, feet, metres_per_unit: float = LAFAN1_METRES_PER_UNIT,
+                     height_threshold_cm: float = FOOT_HEIGHT_THRESHOLD_CM, up_axis: int = 1
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """Pieces of the foot-slide metric, per window.
 
     global_positions: (..., B, T, J, 3) in data units; ground: (B,) ground heights (data units).
@@ -237,22 +232,14 @@ def foot_slide_parts(
     return (weight * displacement_cm).sum(axis=(-2, -1)), (weight > 0).sum(axis=(-2, -1)).astype(np.float64)
 
 
-def foot_slide(
-    global_positions,
-    ground,
-    feet,
-    metres_per_unit: float = LAFAN1_METRES_PER_UNIT,
-    height_threshold_cm: float = FOOT_HEIGHT_THRESHOLD_CM,
-    up_axis: int = 1,
-) -> float:
+def foot_slide(global_positions, ground, feet, metres_per_unit: float = LAFAN1_METRES_PER_UNIT,
+               height_threshold_cm: float = FOOT_HEIGHT_THRESHOLD_CM, up_axis: int = 1) -> float:
     """Foot slide in cm/frame: the sum of weighted horizontal foot displacements divided by the
     number of (joint, frame) pairs with non-zero weight, pooled over all windows (and samples).
 
     global_positions: (..., B, T, J, 3) data units; ground: (B,) data units (see ``ground_heights``);
     feet: foot joint indices (LAFAN1: ankles and toes, (3, 4, 7, 8)). 0 when no foot is near the ground.
     """
-    weighted, count = foot_slide_parts(
-        global_positions, ground, feet, metres_per_unit, height_threshold_cm, up_axis
-    )
+    weighted, count = foot_slide_parts(global_positions, ground, feet, metres_per_unit, height_threshold_cm, up_axis)
     total = float(np.sum(count))
     return float(np.sum(weighted)) / total if total > 0 else 0.0

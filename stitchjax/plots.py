@@ -186,6 +186,35 @@ def _frame_axes(ax, xmin, xmax, ymin, ymax, margin: float = 0.08):
 # ------------------------------------------------------------------------------------- filmstrips
 
 
+def _checked_motions(motions, parents, every: int) -> list:
+    """The filmstrip's motions as a list of (T, J, 3) float64 arrays; ValueError naming a bad shape."""
+    if isinstance(motions, np.ndarray) and motions.ndim == 3:
+        motions = [motions]
+    motions = [np.asarray(m, dtype=np.float64) for m in motions]
+    if not motions:
+        raise ValueError("filmstrip needs at least one motion")
+    num_frames = motions[0].shape[0]
+    for m in motions:
+        if m.ndim != 3 or m.shape[0] != num_frames or m.shape[1:] != (len(parents), 3):
+            raise ValueError(f"filmstrip motions must all be (T, J, 3) = ({num_frames}, {len(parents)}, 3) "
+                             f"global positions, got {m.shape}")
+    if every < 1:
+        raise ValueError(f"every must be >= 1, got {every}")
+    return motions
+
+
+def _placed_poses(poses, axis, spacing: float, travel: bool) -> np.ndarray:
+    """Screen coordinates (D, J, 2) of the drawn poses (D, J, 3), shifted into place: each centred on its
+    root `spacing` apart, or (travel) keeping their displacement from the first one."""
+    screen = project(poses, axis)
+    root = screen[:, :1, 0]
+    if travel:
+        screen[..., 0] -= root[:1]
+    else:
+        screen[..., 0] += np.arange(len(poses))[:, None] * spacing - root
+    return screen
+
+
 def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | None = None,
               transition: tuple | None = None, titles: Sequence[str] | None = None, view="auto",
               spacing: float | None = None, travel: bool = False, cmap: str = DEFAULT_CMAP,
@@ -204,18 +233,8 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
     Figure size: ``figsize``, or ``row_height`` inches per row and the width that keeps the poses'
     aspect ratio (plus room for the titles).
     """
-    if isinstance(motions, np.ndarray) and motions.ndim == 3:
-        motions = [motions]
-    motions = [np.asarray(m, dtype=np.float64) for m in motions]
-    if not motions:
-        raise ValueError("filmstrip needs at least one motion")
+    motions = _checked_motions(motions, parents, every)
     num_frames = motions[0].shape[0]
-    for m in motions:
-        if m.ndim != 3 or m.shape[0] != num_frames or m.shape[1:] != (len(parents), 3):
-            raise ValueError(f"filmstrip motions must all be (T, J, 3) = ({num_frames}, {len(parents)}, 3) "
-                             f"global positions, got {m.shape}")
-    if every < 1:
-        raise ValueError(f"every must be >= 1, got {every}")
     keyframes = (0, num_frames - 1) if keyframes is None else tuple(int(k) % num_frames for k in keyframes)
     if transition is None:
         transition = (min(keyframes), max(keyframes)) if len(keyframes) >= 2 else (0, num_frames - 1)
@@ -226,16 +245,7 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
     ymax = max(float(m[..., 1].max()) for m in motions)
     height = max(ymax - ymin, 1e-3)
     spacing = 0.6 * height if spacing is None else float(spacing)
-    # Screen coordinates of every drawn pose, shifted into place, to size the axes before drawing.
-    placed = []
-    for m in motions:
-        screen = project(m[drawn], axis)  # (D, J, 2)
-        root = screen[:, :1, 0]
-        if travel:
-            screen[..., 0] -= root[:1]
-        else:
-            screen[..., 0] += np.arange(len(drawn))[:, None] * spacing - root
-        placed.append(screen)
+    placed = [_placed_poses(m[drawn], axis, spacing, travel) for m in motions]
     xmin = min(float(p[..., 0].min()) for p in placed)
     xmax = max(float(p[..., 0].max()) for p in placed)
     pad = 0.05 * height
@@ -419,9 +429,9 @@ def loss_curves(records: Sequence[Mapping[str, float]], *, dpi: int = 90, path=N
     records: the metrics.jsonl records (dicts with "step" and the logged terms). Per-direction /
     per-discriminator parts ("fk_forward", "adv_d_short", ...) share their term's panel.
     """
-    skip = {"step", "windows_per_s", "time_s", "epoch"}
-    suffixes = ("_forward", "_backward", "_short", "_long")
-    names = [n for n in records[0] if n not in skip] if records else []
+    skip = {"step", "windows_per_s", "time_s", "epoch", "val_s"}
+    suffixes = ("_forward", "_backward", "_short", "_long", "_interp")
+    names = list(dict.fromkeys(n for r in records for n in r if n not in skip))  # validation records too
     panels = {n: [] for n in names if not n.endswith(suffixes) or n.rsplit("_", 1)[0] not in names}
     for n in names:
         if n not in panels:
@@ -430,11 +440,14 @@ def loss_curves(records: Sequence[Mapping[str, float]], *, dpi: int = 90, path=N
     rows = max(1, math.ceil(len(panels) / cols))
     fig = _new_figure((3.6 * cols, 2.4 * rows), 100)  # laid out at 100 dpi (matplotlib's default), drawn at `dpi`
     axes = fig.subplots(rows, cols, squeeze=False)
-    steps = [r["step"] for r in records]
+    def curve(name):  # the records that have the term (validation records come every eval_every steps)
+        points = [(r["step"], r[name]) for r in records if name in r]
+        return [p[0] for p in points], [p[1] for p in points]
+
     for ax, (name, parts) in zip(axes.flat, panels.items()):
-        ax.plot(steps, [r.get(name, np.nan) for r in records], lw=1.4, label=name)
+        ax.plot(*curve(name), lw=1.4, label=name, marker="." if name.startswith("val_") else None)
         for part in parts:
-            ax.plot(steps, [r.get(part, np.nan) for r in records], lw=0.8, alpha=0.7, label=part)
+            ax.plot(*curve(part), lw=0.8, alpha=0.7, label=part)
         if parts:
             ax.legend(fontsize=6)
         ax.set_title(name, fontsize=9)

@@ -59,12 +59,13 @@ def write_report(workdir: pathlib.Path, config_name: str, records: list[dict], s
              f"final transition length {summary['length']}",
              f"- stopped because: {summary['stop_reason']}", ""]
     if records:
-        last = records[-1]
         lines += [f"Loss terms at the first and the last logged step (means over the {summary['log_every']} "
-                  "steps before it):", "", "| term | first logged | final |", "|---|---|---|"]
-        for name in last:
+                  "steps before it); validation (val_*, train.eval_every) at the first and last validated "
+                  "step:", "", "| term | first logged | final |", "|---|---|---|"]
+        for name in dict.fromkeys(n for r in records for n in r):
             if name in ("step", "time_s", "windows_per_s"):
                 continue
-            lines.append(f"| {name} | {records[0].get(name, float('nan')):.5g} | {last[name]:.5g} |")
+            values = [r[name] for r in records if name in r]
+            lines.append(f"| {name} | {values[0]:.5g} | {values[-1]:.5g} |")
     lines += ["", "Loss curves: loss_curves.png; every logged step: metrics.jsonl."]
     (workdir / "report.md").write_text("\n".join(lines) + "\n")

@@ -254,70 +254,92 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
       "overlap": "forward_positions", "backward_positions" (2K', J, 3) FK positions of the two sequences
         on the overlapping frames (K' = max(K, 1)), "mask" (2K',) bool.
     """
-    m, data = config.model, config.data
-    parents = tuple(data.parents)
+    m = config.model
     dtype = start["rotations"].dtype
     length = jnp.clip(jnp.asarray(length, jnp.int32), 1, max_length)
     n = num_steps(config, max_length)
     h, k, n_fwd, n_bwd = schedule(config, length)
-    bidir = m.bidirectional
-
-    def keyframe(kf):
-        return {"rotations": kf["rotations"], "root": kf["root_position"],
-                "velocity": jnp.zeros((3,), dtype), "contacts": kf["contacts"]}
-
-    start_frame, target_frame = keyframe(start), keyframe(target)
-    if noise is None:
-        eps = jax.random.normal(key, (n, 2, m.latent_dim), dtype)
-    else:
-        eps = jnp.asarray(noise, dtype)
-        if eps.shape != (n, 2, m.latent_dim):
-            raise ValueError(f"noise has shape {eps.shape}; rollout needs ({n}, 2, {m.latent_dim}) "
-                             f"= (num_steps(config, max_length), 2, latent_dim)")
-    eps = eps * jnp.asarray(noise_scale, dtype)
+    eps = _latent_noise(key, noise, (n, 2, m.latent_dim), dtype, noise_scale)
     if ground_truth is not None and m.posterior == "none":
         raise ValueError("ground_truth given but model.posterior='none': the model has no posterior")
     truth = (None if ground_truth is None else
              (ground_truth["forward"], ground_truth.get("backward", ground_truth["forward"])))
-    steps = jnp.arange(n, dtype=jnp.int32)
-    carry0 = networks.initial_carry(config, dtype)
-
+    start_frame, target_frame = _keyframe_state(start, dtype), _keyframe_state(target, dtype)
     plan = {"length": length, "n_forward": n_fwd, "n_backward": n_bwd, "start": start_frame, "target": target_frame}
 
     def body(carry, xs):
         i, eps_i, probes_i, truth_i = xs
         return aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probes_i, truth_i)
 
-    init = (carry0, carry0, start_frame, target_frame)
-    _, seq = jax.lax.scan(body, init, (steps, eps, probes, truth))
+    carry0 = networks.initial_carry(config, dtype)
+    steps = jnp.arange(n, dtype=jnp.int32)
+    _, seq = jax.lax.scan(body, (carry0, carry0, start_frame, target_frame), (steps, eps, probes, truth))
 
     # Sequences including their keyframe at entry 0: fwd_all[t] = frame t, bwd_all[r] = frame L + 1 - r.
-    frame_keys = ("rotations", "root", "velocity", "contacts")
-    fwd_all = _stack_first(start_frame, {key_: seq["forward"][key_] for key_ in frame_keys})
-    if bidir:
-        bwd_all = _stack_first(target_frame, {key_: seq["backward"][key_] for key_ in frame_keys})
-    else:
-        bwd_all = fwd_all
-
-    # Stitch into T_out frames.
+    fwd_all = _stack_first(start_frame, {key_: seq["forward"][key_] for key_ in _FRAME_KEYS})
+    bwd_all = (_stack_first(target_frame, {key_: seq["backward"][key_] for key_ in _FRAME_KEYS})
+               if m.bidirectional else fwd_all)
     t_out = max_length + 2
+    rot, root, contacts = stitch(fwd_all, bwd_all, length, h, k, t_out, m.bidirectional)
+    stitched = _pin_keyframes({"rotations": rot, "root_positions": root, "contacts": contacts}, start, target,
+                              length, t_out)
+    result = _with_positions(stitched, fwd_all, bwd_all, seq, offsets, config, length, (h, k, n_fwd, n_bwd))
+    if probes is not None:
+        return result, {name: inputs for name, inputs in seq["inputs"].items() if inputs is not None}
+    return result
+
+
+_FRAME_KEYS = ("rotations", "root", "velocity", "contacts")
+
+
+def _keyframe_state(keyframe: dict, dtype) -> dict:
+    """A keyframe as a generator frame: its rotations, root, contacts and zero root velocity."""
+    return {"rotations": keyframe["rotations"], "root": keyframe["root_position"],
+            "velocity": jnp.zeros((3,), dtype), "contacts": keyframe["contacts"]}
+
+
+def _latent_noise(key, noise, shape: tuple, dtype, noise_scale):
+    """The standard normal latent noise `shape` = (num_steps, 2, latent_dim), drawn from `key` unless
+    `noise` is given, times `noise_scale`."""
+    if noise is None:
+        eps = jax.random.normal(key, shape, dtype)
+    else:
+        eps = jnp.asarray(noise, dtype)
+        if eps.shape != shape:
+            raise ValueError(f"noise has shape {eps.shape}; rollout needs {shape} "
+                             f"= (num_steps(config, max_length), 2, latent_dim)")
+    return eps * jnp.asarray(noise_scale, dtype)
+
+
+def _pin_keyframes(stitched: dict, start: dict, target: dict, length, t_out: int) -> dict:
+    """Frame 0 set to the start keyframe and frames L + 1 .. t_out - 1 to the target, exactly."""
     t = jnp.arange(t_out, dtype=jnp.int32)
-    rot, root, contacts = stitch(fwd_all, bwd_all, length, h, k, t_out, bidir)
     is_start, is_target = (t == 0), (t >= length + 1)
 
     def pin(x, first, last):
         shape = (t_out,) + (1,) * (x.ndim - 1)
         return jnp.where(is_start.reshape(shape), first[None], jnp.where(is_target.reshape(shape), last[None], x))
 
-    rot = pin(rot, start["rotations"], target["rotations"])
-    root = pin(root, start["root_position"], target["root_position"])
-    contacts = pin(contacts, start["contacts"], target["contacts"])
+    return {"rotations": pin(stitched["rotations"], start["rotations"], target["rotations"]),
+            "root_positions": pin(stitched["root_positions"], start["root_position"], target["root_position"]),
+            "contacts": pin(stitched["contacts"], start["contacts"], target["contacts"])}
 
-    # One FK call for the forward, backward and stitched sequences.
-    all_rot = jnp.concatenate([fwd_all["rotations"], bwd_all["rotations"], rot], axis=0)
-    all_root = jnp.concatenate([fwd_all["root"], bwd_all["root"], root], axis=0)
-    _, all_pos = skel.forward_kinematics(all_rot, F.local_positions(offsets.astype(dtype), all_root), parents)
+
+def _with_positions(stitched: dict, fwd_all: dict, bwd_all: dict, seq: dict, offsets, config, length,
+                    split: tuple) -> dict:
+    """The rollout's result (see :func:`rollout`): FK positions of the forward, backward and stitched
+    sequences in one call, the per-direction outputs and the overlap. split = (h, k, n_forward, n_backward)."""
+    m = config.model
+    h, k, n_fwd, n_bwd = split
+    n = fwd_all["rotations"].shape[0] - 1
+    t_out = stitched["rotations"].shape[0]
+    dtype = stitched["rotations"].dtype
+    all_rot = jnp.concatenate([fwd_all["rotations"], bwd_all["rotations"], stitched["rotations"]], axis=0)
+    all_root = jnp.concatenate([fwd_all["root"], bwd_all["root"], stitched["root_positions"]], axis=0)
+    _, all_pos = skel.forward_kinematics(all_rot, F.local_positions(offsets.astype(dtype), all_root),
+                                         tuple(config.data.parents))
     pos_fwd, pos_bwd, pos_stitched = all_pos[:n + 1], all_pos[n + 1:2 * (n + 1)], all_pos[2 * (n + 1):]
+    steps = jnp.arange(n, dtype=jnp.int32)
 
     def direction(seq_dir, positions, count):
         d = {"rotations": seq_dir["rotations"], "root_positions": seq_dir["root"],
@@ -326,15 +348,13 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         d.update({key_: seq_dir[key_] for key_ in GAUSSIAN_KEYS})
         return d
 
-    result = {
-        "rotations": rot, "root_positions": root, "contacts": contacts, "global_positions": pos_stitched,
-        "mask": t <= length + 1,
-        "forward": direction(seq["forward"], pos_fwd, n_fwd),
-    }
+    result = {**stitched, "global_positions": pos_stitched,
+              "mask": jnp.arange(t_out, dtype=jnp.int32) <= length + 1,
+              "forward": direction(seq["forward"], pos_fwd, n_fwd)}
     size = 2 * max(m.stitch_buffer, 1)
     j = jnp.arange(size, dtype=jnp.int32)
     frames = h - k + 1 + j
-    if bidir:
+    if m.bidirectional:
         result["backward"] = direction(seq["backward"], pos_bwd, n_bwd)
         overlap_mask = j < 2 * k
     else:
@@ -344,8 +364,6 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         "backward_positions": jnp.take(pos_bwd, length + 1 - frames, axis=0, mode="clip"),
         "mask": overlap_mask,
     }
-    if probes is not None:
-        return result, {name: inputs for name, inputs in seq["inputs"].items() if inputs is not None}
     return result
 
 

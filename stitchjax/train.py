@@ -1,4 +1,4 @@
-"""Training: the train state, one jitted train step, the progressive length schedule and the loop.
+"""Training: the train state, one jitted train step and the loop.
 
 Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `train`):
 
@@ -12,9 +12,9 @@ Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `tr
   rollout per generator (inside `losses.generator_loss`), and updates both generators and both
   discriminators with separate AdamW optimisers. `length` (the transition length) is a traced int32, so
   the progressive schedule never recompiles.
-- `transition_length(step, steps_per_epoch, train_config)`: 5 -> max_length, +1 every 2 epochs.
-- `train(config, workdir, ...)`: `restore_or_init` (resume from the newest good checkpoint, or pretrain the
-  phase network and initialise), `run_loop` (progress bar, metrics JSON lines, periodic checkpoints, NaN
+- `schedule.transition_length(step, steps_per_epoch, train_config)`: the progressive length (stitchjax.schedule).
+- `train(config, workdir, ...)`: `resume.restore_or_init` (resume from the newest good checkpoint, start from
+  another run with `init_from`, or pretrain the phase network and initialise), `run_loop` (progress bar, metrics JSON lines, periodic checkpoints, NaN
   guard, Ctrl-C / SIGTERM save), then `finish` (report.md and loss_curves.png).
 
 Devices, sharding and multi-host start-up: `stitchjax.parallel` (the same code runs on 1 CPU, 1 GPU, several
@@ -24,26 +24,23 @@ bar; orbax coordinates the checkpoint writes of all processes.
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import pathlib
 import signal
-import sys
 import time
-from typing import Any, Callable, NamedTuple
+from typing import Any, Callable
 
 import flax.struct
 import jax
 import jax.numpy as jnp
 import numpy as np
 import optax
-from jax.experimental import multihost_utils
 from jax.sharding import Mesh
 from tqdm.auto import tqdm
 
-from stitchjax import bvh_folder, checkpoints
+from stitchjax import checkpoints, datasets, resume, schedule
 from stitchjax import config as config_lib
-from stitchjax import features, h36m, lafan1, losses, networks, parallel, phase, plots, reporting, sample
+from stitchjax import features, losses, networks, parallel, phase, plots, reporting
 
 GENERATORS = ("forward", "backward")
 DISCRIMINATORS = ("disc_short", "disc_long")
@@ -236,63 +233,6 @@ def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
     return train_step
 
 
-# ------------------------------------------------------------------------------------------- schedule
-
-
-def steps_per_epoch(num_windows: int, batch_size: int) -> int:
-    """Steps per pass over the training windows (at least 1)."""
-    return max(1, num_windows // batch_size)
-
-
-def transition_length(step: int, steps_per_epoch: int, train_config) -> int:
-    """Progressive transition length: min_length, + length_step every `epochs_per_length` epochs, <= max_length.
-
-    An epoch is `steps_per_epoch` steps (N_windows // batch_size).
-    """
-    grow = int(step) // max(1, int(round(train_config.epochs_per_length * steps_per_epoch)))
-    return int(min(train_config.max_length, train_config.min_length + grow * train_config.length_step))
-
-
-def total_steps(steps_per_epoch: int, train_config) -> int:
-    """train.max_steps when > 0, else train.num_epochs epochs."""
-    return int(train_config.max_steps) if train_config.max_steps > 0 else int(train_config.num_epochs * steps_per_epoch)
-
-
-class RunPlan(NamedTuple):
-    """How long a run goes and when it saves, in steps."""
-
-    steps_per_epoch: int  # N_windows // batch_size, at least 1
-    max_steps: int  # train until this step
-    checkpoint_every: int  # save every this many steps
-
-
-def plan_run(num_windows: int, train_config, max_steps: int | None = None) -> RunPlan:
-    """The `RunPlan` of `num_windows` training windows (max_steps None: `total_steps`).
-
-    Raises TrainingError when train.length_buckets has no bucket for train.max_length.
-    """
-    tc = train_config
-    per_epoch = steps_per_epoch(num_windows, tc.batch_size)
-    max_steps = total_steps(per_epoch, tc) if max_steps is None else int(max_steps)
-    buckets = [int(b) for b in tc.length_buckets or ()]
-    if buckets and max(buckets) < tc.max_length:
-        raise TrainingError(f"train.length_buckets={tuple(buckets)} must include a bucket >= train.max_length="
-                            f"{tc.max_length} (or set train.length_buckets= to mask one full-window step)")
-    checkpoint_every = tc.checkpoint_every_steps or max(1, int(round(tc.checkpoint_every * per_epoch)))
-    return RunPlan(per_epoch, max_steps, checkpoint_every)
-
-
-def bucket_window(length: int, train_config) -> int | None:
-    """Static window (frames) for `length` when train.length_buckets is set, else None (full window)."""
-    buckets = tuple(sorted(int(b) for b in train_config.length_buckets or ()))
-    if not buckets:
-        return None
-    for bucket in buckets:
-        if length <= bucket:
-            return bucket + 2
-    raise TrainingError(f"transition length {length} exceeds the largest of train.length_buckets={buckets}")
-
-
 def check_finite(metrics: dict, step: int) -> None:
     """Raise NonFiniteLossError naming the first non-finite metric (loss term) at `step`."""
     for name, value in metrics.items():
@@ -303,53 +243,6 @@ def check_finite(metrics: dict, step: int) -> None:
 
 
 # ---------------------------------------------------------------------------------------------- data
-
-
-def load_training_data(config, data_dir: str | os.PathLike | None):
-    """(dataset dict of (N, T, ...) numpy arrays, stats) for config.data; data_dir None = bundled sample."""
-    windows, stats = load_windows_and_stats(config, data_dir)
-    dataset = features.prepare_dataset(windows, stats, config)
-    return {name: np.asarray(x) for name, x in dataset.items()}, stats
-
-
-def load_windows_and_stats(config, data_dir):
-    """Training windows and normalisation statistics of the dataset named by config.data."""
-    data = config.data
-    dataset_name = getattr(data, "dataset", "lafan1")
-    if dataset_name == "lafan1":
-        if data_dir is None:
-            data_dir = sample.sample_dir()
-        data_dir = pathlib.Path(data_dir)
-        if not data_dir.is_dir():
-            raise FileNotFoundError(f"--data {data_dir}: no such folder (expected LAFAN1 .bvh files)")
-        kwargs = dict(window=data.window, offset=data.offset)
-        windows = lafan1.load_windows(data_dir, data.train_subjects, **kwargs)
-        stats = lafan1.train_statistics(data_dir, data.train_subjects, **kwargs)
-        return windows, stats
-    if dataset_name == "h36m":
-        if data_dir is None:
-            raise FileNotFoundError("the h36m config needs --data DIR (the Human3.6M exponential-map folder)")
-        windows = h36m.load_windows(data_dir, data.train_subjects, window=data.window, offset=data.offset)
-        stats = h36m.train_statistics(data_dir, data.train_subjects, window=data.window, offset=data.offset)
-        return windows, stats
-    if dataset_name == "bvh_folder":
-        if data_dir is None:
-            raise FileNotFoundError("the bvh_folder dataset needs --data DIR (a folder of .bvh / .bvh.gz files)")
-        return bvh_folder.load_windows_and_stats(data_dir, data)
-    raise ValueError(f"config.data.dataset={dataset_name!r}: expected 'lafan1', 'h36m' or 'bvh_folder'")
-
-
-def stats_to_json(stats) -> dict:
-    """Normalisation statistics (namedtuple/dataclass/dict of arrays) as a JSON-able dict."""
-    if stats is None:
-        return {}
-    if hasattr(stats, "_asdict"):
-        items = stats._asdict()
-    elif dataclasses.is_dataclass(stats):
-        items = {f.name: getattr(stats, f.name) for f in dataclasses.fields(stats)}
-    else:
-        items = dict(stats)
-    return {name: np.asarray(value).tolist() for name, value in items.items()}
 
 
 def pretrain_phase_params(config, dataset: dict, key: jax.Array):
@@ -374,36 +267,6 @@ def reverse_time(dataset: dict) -> dict:
 
 
 # ------------------------------------------------------------------------------------------------ loop
-
-
-def _newest_readable_config(workdir) -> tuple[int, dict]:
-    """(step, config JSON) of the newest checkpoint whose config file reads (for the resume check)."""
-    steps = checkpoints.saved_steps(workdir)
-    for step in reversed(steps):
-        try:
-            return step, checkpoints.read_config_json(workdir, step)
-        except (OSError, ValueError):  # missing or truncated JSON: the restore will fall back too
-            continue
-    return (steps[-1] if steps else -1), {}
-
-
-def _set_aside_newer_steps(manager, workdir, restored: int, report) -> None:
-    """Rename the broken step folders newer than `restored` to `<step>.broken` (nothing is deleted), so
-    the resumed run can save those steps again; process 0 renames, the others wait for it."""
-    folder = checkpoints.checkpoint_dir(workdir)
-    if jax.process_index() == 0:
-        for step in checkpoints.saved_steps(workdir):
-            if step > restored:
-                target = folder / f"{step}.broken"
-                n = 1
-                while target.exists():
-                    target, n = folder / f"{step}.broken{n}", n + 1
-                (folder / str(step)).rename(target)
-                if report is not None:
-                    report(f"warning: moved the broken checkpoint {folder / str(step)} to {target}")
-    if jax.process_count() > 1:
-        multihost_utils.sync_global_devices("stitchjax-set-aside-broken-checkpoints")
-    manager.reload()
 
 
 class _StopFlag:
@@ -432,22 +295,6 @@ class _StopFlag:
         return False
 
 
-def _check_same_run(config_json: dict, workdir: pathlib.Path, manager) -> None:
-    """Raise TrainingError when the run saved in `workdir` has other data / model / loss / phase settings."""
-    saved_step, saved = _newest_readable_config(workdir)
-    try:  # fields added since that run was saved take their legacy / default value, as when loading it
-        saved = config_lib.to_dict(config_lib.from_dict(saved))
-    except (config_lib.ConfigError, TypeError):
-        pass
-    changed = [section for section in ("data", "model", "loss", "phase")
-               if saved.get(section) != config_json.get(section)]
-    if changed:
-        checkpoints.close(manager)
-        raise TrainingError(
-            f"{workdir} holds a run (step {saved_step}) whose {', '.join(changed)} config differs from this "
-            "one; resume with the same config and overrides (only train.* may change), or use a new --workdir")
-
-
 def _fresh_state(config, dataset: dict, mesh: Mesh) -> TrainState:
     """Step 0 from train.seed, with the phase network pretrained on `dataset` when the model uses one."""
     key = jax.random.PRNGKey(config.train.seed)
@@ -457,35 +304,6 @@ def _fresh_state(config, dataset: dict, mesh: Mesh) -> TrainState:
         if jax.process_index() == 0:
             print(f"phase network pretrained: final loss {float(phase_loss):.4g}")
     return create_train_state(config, key, phase_params, mesh)
-
-
-def restore_or_init(config, config_json: dict, workdir: pathlib.Path, manager, log: reporting.MetricsLog,
-                    dataset: dict, mesh: Mesh) -> tuple[TrainState, int | None]:
-    """(state, restored step or None): the newest checkpoint in `workdir` that restores, else a fresh state.
-
-    On resume, newer checkpoints that do not restore are set aside as `<step>.broken` and metrics past the
-    restored step are dropped. Raises TrainingError when the saved run's config differs (`_check_same_run`)
-    or no checkpoint restores.
-    """
-    latest = manager.latest_step()
-    if latest is None:
-        return _fresh_state(config, dataset, mesh), None
-    _check_same_run(config_json, workdir, manager)
-    is_main = jax.process_index() == 0
-    report = (lambda message: print(message, file=sys.stderr)) if is_main else None
-    try:
-        state, _, _, restored = checkpoints.restore_newest_good(
-            manager, abstract_train_state(config, mesh), report=report)
-    except checkpoints.CheckpointError as error:
-        checkpoints.close(manager)
-        raise TrainingError(str(error)) from None
-    if restored != latest:
-        _set_aside_newer_steps(manager, workdir, restored, report)
-    if is_main:
-        print(f"resuming from step {restored} ({checkpoints.checkpoint_dir(workdir) / str(restored)})",
-              file=sys.stderr)
-    log.truncate_after(int(restored))
-    return state, restored
 
 
 class _Saver:
@@ -505,7 +323,7 @@ def _step_for_length(config, mesh: Mesh) -> Callable:
     steps: dict = {}
 
     def step_for(length: int):
-        window = bucket_window(length, config.train)
+        window = schedule.bucket_window(length, config.train)
         if window not in steps:
             steps[window] = make_train_step(config, mesh, window)
         return steps[window]
@@ -513,11 +331,14 @@ def _step_for_length(config, mesh: Mesh) -> Callable:
     return step_for
 
 
-def run_loop(state: TrainState, device_data: dict, step_for: Callable, plan: RunPlan, train_config,
-             log: reporting.MetricsLog, saver: _Saver, bar, t_start: float) -> tuple[TrainState, dict]:
+def run_loop(state: TrainState, device_data: dict, step_for: Callable, plan: schedule.RunPlan, train_config,
+             log: reporting.MetricsLog, saver: _Saver, bar, t_start: float,
+             validate: Callable | None = None) -> tuple[TrainState, dict]:
     """Train from `state.step` to `plan.max_steps`, or until the first SIGINT / SIGTERM.
 
-    Logs the means over each `train.log_every` steps (time_s: seconds since `t_start`), saves every
+    Logs the means over each `train.log_every` steps (time_s: seconds since `t_start`), every
+    `train.eval_every` steps also `validate(state)` (a record of its own; its time is not counted in
+    windows_per_s), saves every
     `plan.checkpoint_every` steps (not the last: the caller saves it), advances `bar` (tqdm or None).
     Returns (state, {"start_step", "step", "length", "stop_reason", "compile_s"}); compile_s: the first
     step's seconds. Raises NonFiniteLossError at a NaN / inf metric.
@@ -527,11 +348,11 @@ def run_loop(state: TrainState, device_data: dict, step_for: Callable, plan: Run
     stop_reason = "reached max_steps"
     compile_s = 0.0
     t_log, windows_since_log = time.perf_counter(), 0
-    length = transition_length(step, plan.steps_per_epoch, tc)
+    length = schedule.transition_length(step, plan.steps_per_epoch, tc)
     interval_sums, interval_count = {}, 0  # metrics are logged as means over the logging interval
     with _StopFlag() as stop:
         while step < plan.max_steps:
-            length = transition_length(step, plan.steps_per_epoch, tc)
+            length = schedule.transition_length(step, plan.steps_per_epoch, tc)
             t0 = time.perf_counter()
             state, metrics = step_for(length)(state, device_data, jnp.int32(length))
             metrics = jax.device_get(metrics)
@@ -556,6 +377,10 @@ def run_loop(state: TrainState, device_data: dict, step_for: Callable, plan: Run
                 interval_sums, interval_count = {}, 0
                 if bar is not None:
                     bar.set_postfix(loss=f"{record['loss']:.4g}", L=length, win_s=f"{rate:.0f}")
+            if validate is not None and step % tc.eval_every == 0:
+                t_val = time.perf_counter()
+                log.write({"step": step, **validate(state), "time_s": time.perf_counter() - t_start})
+                t_log += time.perf_counter() - t_val
             if bar is not None:
                 bar.update(1)
             if step % plan.checkpoint_every == 0 and step != plan.max_steps:
@@ -591,7 +416,7 @@ def finish(workdir: pathlib.Path, config_name: str, outcome: dict, num_windows: 
     }
     if jax.process_index() == 0:
         records = reporting.read_metrics(workdir / "metrics.jsonl")
-        summary["final"] = records[-1] if records else {}
+        summary["final"] = next((r for r in reversed(records) if "loss" in r), {})  # not a validation record
         reporting.write_report(workdir, config_name or "config", records, summary)
         if records:
             plots.loss_curves(records, path=workdir / "loss_curves.png")
@@ -601,8 +426,14 @@ def finish(workdir: pathlib.Path, config_name: str, outcome: dict, num_windows: 
 def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | None = None,
           max_steps: int | None = None, config_name: str = "", progress: bool = True,
           dataset: dict | None = None, stats: Any = None, train_step: Callable | None = None,
-          mesh: Mesh | None = None) -> dict:
+          mesh: Mesh | None = None, init_from: str | os.PathLike | None = None,
+          make_validator: Callable | None = None) -> dict:
     """Train (or resume) a run in `workdir` until step `max_steps` (default: `total_steps`).
+
+    init_from: a run folder to start a new `workdir` from (fine-tuning with other loss / train settings;
+    ignored once `workdir` has checkpoints of its own). make_validator: with ``train.eval_every`` > 0,
+    ``make_validator(config, data_dir, stats_json, skeleton_facts) -> validate(state) -> record``
+    (``stitchjax.validation.make_validator``; bin/train passes it).
 
     dataset/stats: pass prepared arrays to skip loading (tests, notebooks); otherwise they are loaded from
     `data_dir` (None = the bundled LAFAN1 sample). train_step: a replacement step function (tests).
@@ -613,27 +444,34 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
     workdir.mkdir(parents=True, exist_ok=True)
     mesh = parallel.make_mesh() if mesh is None else mesh
     if dataset is None:
-        dataset, stats = load_training_data(config, data_dir)
+        dataset, stats = datasets.load_training_data(config, data_dir)
     num_windows = int(next(iter(dataset.values())).shape[0])
     if num_windows == 0:
         raise TrainingError("no training windows: check --data and config.data (window length, subjects)")
     local = parallel.local_windows_slice(num_windows)
     device_data = parallel.shard_dataset({k: v[local] for k, v in dataset.items()}, mesh)
-    plan = plan_run(num_windows, config.train, max_steps)
+    plan = schedule.plan_run(num_windows, config.train, max_steps)
 
     manager = checkpoints.open_manager(workdir, max_to_keep=config.train.max_to_keep)
     log = reporting.MetricsLog(workdir / "metrics.jsonl", enabled=jax.process_index() == 0)
     config_json = config_lib.to_dict(config)
-    state, latest = restore_or_init(config, config_json, workdir, manager, log, dataset, mesh)
-    extras = {"stats": stats_to_json(stats), "config_name": config_name,
-              "skeleton": bvh_folder.skeleton_facts(data_dir, config.data)}
+    try:
+        state, latest = resume.restore_or_init(config_json, workdir, manager, log, abstract_train_state(config, mesh),
+                                               lambda: _fresh_state(config, dataset, mesh), init_from)
+    except resume.ResumeError as error:
+        raise TrainingError(str(error)) from None
+    extras = {"stats": datasets.stats_to_json(stats), "config_name": config_name,
+              "skeleton": datasets.skeleton_facts(data_dir, config.data)}
     saver = _Saver(manager, config_json, extras, latest)
+    validate = (make_validator(config, data_dir, extras["stats"], extras["skeleton"])
+                if make_validator is not None and config.train.eval_every > 0 else None)
     step_for = (lambda length: train_step) if train_step is not None else _step_for_length(config, mesh)
     bar = (tqdm(total=plan.max_steps, initial=int(state.step), unit="step", dynamic_ncols=True)
            if progress and jax.process_index() == 0 else None)
     t_start = time.perf_counter()
     try:
-        state, outcome = run_loop(state, device_data, step_for, plan, config.train, log, saver, bar, t_start)
+        state, outcome = run_loop(state, device_data, step_for, plan, config.train, log, saver, bar, t_start,
+                                  validate)
     except NonFiniteLossError as error:
         _close(bar, manager)
         raise NonFiniteLossError(

@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from stitchjax import bvh, bvh_folder, conform, inbetween, rotations, sample
+from stitchjax import bvh, bvh_folder, conform, inbetween, rotations, sample, takes, trained_model
 from stitchjax import config as config_lib
 from stitchjax.skeleton import forward_kinematics
 
@@ -132,17 +132,17 @@ def test_bin_train_on_the_cmu_file_trains_and_checkpoints(cmu_run):
 
 @pytest.mark.slow
 def test_cmu_model_samples_a_transition_from_the_cmu_file_ending_on_the_target(cmu_run, shared_data):
-    model = inbetween.load_model(cmu_run)
+    model = trained_model.load_model(cmu_run)
     take = bvh.load(shared_data / "cmu" / "01_01.bvh")  # 120 fps, CMU units (1/0.45 inch)
     assert model.joint_names == take.skeleton.names and model.feet_names == tuple(CMU_FEET)
     assert model.forward_axis == (0.0, 0.0, 1.0) and model.unit_scale == 5.6444
-    out = inbetween.inbetween_takes(model, take, 40, take, 68, num_samples=2, output="transition")
+    out = takes.inbetween_takes(model, take, 40, take, 68, num_samples=2, output="transition")
     assert [m.num_frames for m in out] == [8, 8] and out[0].fps == 30.0  # 28 frames at 120 fps: 6 generated
     for m in out:  # in the file's units again, on the keyframes to float64 rounding
         np.testing.assert_allclose(m.positions[[0, -1]], take.positions[[40, 68]], rtol=0, atol=1e-9)
         np.testing.assert_allclose(m.rotations[[0, -1]], take.rotations[[40, 68]], rtol=0, atol=1e-12)
     # the start keyframe is faced as the training windows were: the root's local +Z (not LAFAN1's +Y) onto +X
-    k = inbetween.to_model_frame(model, take[40:41])
+    k = takes.to_model_frame(model, take[40:41])
     aligned, _, _, _ = inbetween._alignment(k.rotations, k.positions, k.rotations, k.positions, model.parents,
                                             model.forward_axis)
     forward = rotations.quat_rotate(aligned[0, 0, 0], np.array(model.forward_axis))

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from stitchjax import evaluate, lafan1
+from stitchjax import evaluate, lafan1, tables
 from stitchjax.sample import sample_dir
 from stitchjax.skeleton import forward_kinematics
 
@@ -53,7 +53,7 @@ def test_benchmark_schema_and_baseline_ordering(sample):
         entry = results["lengths"][n]
         assert entry["zerov"]["l2p"] > entry["interp"]["l2p"]
         assert entry["zerov"]["l2q"] > entry["interp"]["l2q"]
-    table = evaluate.format_benchmark_table(results)
+    table = tables.format_benchmark_table(results)
     row = next(line for line in table.splitlines() if line.split()[:2] == ["30", "interp"])
     assert f"{results['lengths']['30']['interp']['l2p']:.4f}" in row and "l2p (-)" in table
     assert table.splitlines()[-1].startswith("units: ")
@@ -90,7 +90,7 @@ def test_protocol_schema_and_perfect_method(sample):
         assert entry["zerov"]["ade"] > entry["interp"]["ade"] > 0
         assert entry["interp"]["apd"] == 0.0
     json.dumps(out)  # plain JSON types
-    table = evaluate.format_protocol_table(out)  # the layout of the benchmark's table, units in the header
+    table = tables.format_protocol_table(out)  # the layout of the benchmark's table, units in the header
     assert "ade (m)" in table and "foot_slide (cm/f)" in table and table.splitlines()[-1].startswith("units: ")
     row = next(line for line in table.splitlines() if line.split()[:2] == ["50", "zerov"])
     assert f"{out['lengths']['50']['zerov']['ade']:.4f}" in row

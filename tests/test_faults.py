@@ -88,19 +88,19 @@ def test_broken_newest_checkpoint_falls_back_and_names_the_folder(tmp_path):
 
 
 def test_inbetween_load_model_falls_back_over_a_broken_checkpoint(tiny_run, tmp_path, capsys):
-    from stitchjax import inbetween
+    from stitchjax import trained_model
 
     folder = checkpoints.checkpoint_dir(tmp_path)
     folder.mkdir(parents=True)
     for step in (5, 9):  # the session's tiny checkpoint as steps 5 and 9 (no new train state to compile)
         shutil.copytree(checkpoints.checkpoint_dir(tiny_run) / "0", folder / str(step))
     _truncate_state(folder / "9")
-    model = inbetween.load_model(tmp_path)
+    model = trained_model.load_model(tmp_path)
     assert model.source.endswith("step 5")
     err = capsys.readouterr().err
     assert str(folder / "9") in err and "falling back to step 5" in err
     with pytest.raises(FileNotFoundError, match=r"checkpoints/9 cannot be restored"):
-        inbetween.load_model(folder / "9")  # a step asked for by name: no silent fallback
+        trained_model.load_model(folder / "9")  # a step asked for by name: no silent fallback
 
 
 @pytest.mark.slow

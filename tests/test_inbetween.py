@@ -14,7 +14,7 @@ import jax
 import numpy as np
 import pytest
 
-from stitchjax import bvh, inbetween, rotations as R, sample
+from stitchjax import bvh, evaluate, inbetween, latent, rotations as R, sample, takes, trained_model
 from stitchjax.skeleton import Skeleton
 from stitchjax.windows import Windows, foot_contacts
 
@@ -25,7 +25,7 @@ TOL_CM = 1e-4
 
 @pytest.fixture(scope="session")
 def model(tiny_run):
-    return inbetween.load_model(tiny_run)
+    return trained_model.load_model(tiny_run)
 
 
 @pytest.fixture(scope="session")
@@ -39,13 +39,13 @@ def _global(motion):
 
 def test_load_model_from_run_step_folder_and_errors(tiny_run, model, tmp_path):
     assert model.num_joints == 22 and model.joint_names[0] == "Hips"
-    again = inbetween.load_model(tiny_run / "checkpoints" / "0")
+    again = trained_model.load_model(tiny_run / "checkpoints" / "0")
     for a, b in zip(jax.tree.leaves(model.params), jax.tree.leaves(again.params)):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
     with pytest.raises(FileNotFoundError, match="does not exist"):
-        inbetween.load_model(tmp_path / "nowhere")
+        trained_model.load_model(tmp_path / "nowhere")
     with pytest.raises(FileNotFoundError, match="no checkpoints"):
-        inbetween.load_model(tmp_path)
+        trained_model.load_model(tmp_path)
 
 
 def test_samples_differ_and_end_exactly_on_the_keyframes(model, take):
@@ -71,7 +71,7 @@ def test_samples_differ_and_end_exactly_on_the_keyframes(model, take):
 
 
 def test_bfloat16_matmuls_give_nearby_transitions_that_still_end_on_the_keyframes(model, take):
-    low = inbetween.with_matmul_dtype(model, "bfloat16")
+    low = trained_model.with_matmul_dtype(model, "bfloat16")
     assert low.config.model.matmul_dtype == "bfloat16" and model.config.model.matmul_dtype == "float32"
     assert low.params is model.params
     start, target = take[99:101], take[110:112]
@@ -84,7 +84,7 @@ def test_bfloat16_matmuls_give_nearby_transitions_that_still_end_on_the_keyframe
         difference = np.abs(g_b - g_a).max()
         assert 0 < difference < 5.0, difference  # cm: same noise, rounded matmul operands
     with pytest.raises(inbetween.InbetweenError, match="float16"):
-        inbetween.with_matmul_dtype(model, "float16")
+        trained_model.with_matmul_dtype(model, "float16")
 
 
 def test_result_follows_the_keyframes_when_the_world_turns(model, take):
@@ -119,7 +119,7 @@ def test_search_keeps_the_lowest_stitching_losses(model, take):
 
 
 def test_clip_replaces_only_the_frames_between_the_keyframes(model, take):
-    clips = inbetween.inbetween_clip(model, take, 100, 120, length=LENGTH, num_samples=CANDIDATES, seed=1)
+    clips = takes.inbetween_clip(model, take, 100, 120, length=LENGTH, num_samples=CANDIDATES, seed=1)
     expected_frames = take.num_frames - 19 + LENGTH
     full = _global(take)
     for c in clips:
@@ -138,12 +138,12 @@ def _one_window(take, first=200):
 
 def test_rollout_details_uses_the_given_noise(model, take):
     """The latent-space helpers feed the rollout the noise they are given (same noise, same motion)."""
-    start, target, offsets = inbetween.window_keyframes(model, _one_window(take), 1, LENGTH)
+    start, target, offsets = latent.window_keyframes(model, _one_window(take), 1, LENGTH)
     plain = inbetween.sample_transitions(model, start, target, offsets, LENGTH, CANDIDATES, seed=4)
     window_key = jax.random.split(jax.random.PRNGKey(4), 1)[0]
-    shape = inbetween.noise_shape(model, LENGTH)
+    shape = latent.noise_shape(model, LENGTH)
     noise = np.stack([jax.random.normal(k, shape) for k in jax.random.split(window_key, CANDIDATES)])[None]
-    details = inbetween.rollout_details(model, start, target, offsets, LENGTH, noise)
+    details = latent.rollout_details(model, start, target, offsets, LENGTH, noise)
     np.testing.assert_allclose(details["global_positions"], plain["global_positions"], atol=1e-3)
     np.testing.assert_allclose(details["stitch_loss"], plain["stitch_loss"], rtol=1e-4)
     assert details["forward"]["mu_blend"].shape[:2] == (1, CANDIDATES)
@@ -151,7 +151,7 @@ def test_rollout_details_uses_the_given_noise(model, take):
 
 def test_evaluation_method_shapes(model, take):
     windows = _one_window(take)
-    method = inbetween.model_method(model)
+    method = evaluate.model_method(model)
     rot, pos = method(windows, 1, LENGTH, CANDIDATES, 11)
     assert rot.shape == (CANDIDATES, 1, LENGTH, 22, 4) and pos.shape == (CANDIDATES, 1, LENGTH, 22, 3)
     assert np.all(np.isfinite(rot)) and np.allclose(np.linalg.norm(rot, axis=-1), 1.0, atol=1e-5)
@@ -165,9 +165,9 @@ def test_bad_requests_raise_clear_errors(model, take):
     with pytest.raises(inbetween.InbetweenError, match="num_samples"):
         inbetween.inbetween(model, take[100], take[110], 4, 0)
     with pytest.raises(inbetween.InbetweenError, match="out of range"):
-        inbetween.inbetween_clip(model, take, 100, take.num_frames + 5)
+        takes.inbetween_clip(model, take, 100, take.num_frames + 5)
     with pytest.raises(inbetween.InbetweenError, match="after start frame"):
-        inbetween.inbetween_clip(model, take, 120, 100)
+        takes.inbetween_clip(model, take, 120, 100)
     sk = take.skeleton
     renamed = Skeleton(("Root",) + sk.names[1:], sk.parents, sk.offsets)
     with pytest.raises(inbetween.InbetweenError, match="joint names differ"):

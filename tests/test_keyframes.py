@@ -14,7 +14,7 @@ import sys
 import numpy as np
 import pytest
 
-from stitchjax import bvh, conform, inbetween, rotations as R, sample
+from stitchjax import bvh, conform, inbetween, rotations as R, sample, takes, trained_model
 from stitchjax.skeleton import Skeleton
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
@@ -29,7 +29,7 @@ def take():
 @pytest.fixture(scope="module")
 def model(tiny_run, take):
     """The tiny model, with the training skeleton's offsets a trained run saves (for the units check)."""
-    loaded = inbetween.load_model(tiny_run)
+    loaded = trained_model.load_model(tiny_run)
     offsets = np.array(take.skeleton.offsets)
     offsets[0] = 0.0
     return dataclasses.replace(loaded, stats={**loaded.stats, "offsets": offsets})
@@ -40,14 +40,14 @@ def test_length_beyond_training_is_an_error_naming_both(model, take):
     with pytest.raises(inbetween.InbetweenError, match=r"length 9 is longer than the 8 frames"):
         inbetween.inbetween(model, take[100], take[110], LENGTH + 1, SAMPLES)
     with pytest.raises(inbetween.InbetweenError, match=r"length 19 is longer than the 8 frames.*allow_extrapolation"):
-        inbetween.inbetween_clip(model, take, 100, 120, num_samples=SAMPLES)
+        takes.inbetween_clip(model, take, 100, 120, num_samples=SAMPLES)
     with pytest.raises(inbetween.InbetweenError, match=r"length 30 .* 8 frames"):
-        inbetween.inbetween_takes(model, take, 100, take, 200, 30, SAMPLES)
+        takes.inbetween_takes(model, take, 100, take, 200, 30, SAMPLES)
 
 
 def test_target_from_another_take_placed_by_offset_and_turn(model, take):
     other = bvh.load(sample.sample_files(["subject1"])[0])
-    samples = inbetween.inbetween_takes(model, take, 100, other, 50, LENGTH, SAMPLES, seed=0,
+    samples = takes.inbetween_takes(model, take, 100, other, 50, LENGTH, SAMPLES, seed=0,
                                         offset=(300.0, 0.0, 0.0), turn_degrees=90.0, output="transition")
     placed = conform.place(other, (300.0, 0.0, 0.0), 90.0, pivot=50)
     want_end = placed[50].global_positions()[0]
@@ -62,7 +62,7 @@ def test_target_from_another_take_placed_by_offset_and_turn(model, take):
         g = s.global_positions()
         assert np.abs(g[0] - take[100].global_positions()[0]).max() < 1e-4
         assert np.abs(g[-1] - want_end).max() < 1e-4
-    appended = inbetween.inbetween_takes(model, take, 100, other, 50, LENGTH, 1, offset=(300.0, 0.0, 0.0),
+    appended = takes.inbetween_takes(model, take, 100, other, 50, LENGTH, 1, offset=(300.0, 0.0, 0.0),
                                          turn_degrees=90.0, output="appended")[0]
     assert appended.num_frames == 100 + LENGTH + 2
     np.testing.assert_allclose(appended.global_positions()[:101], take[:101].global_positions(), atol=1e-9)
@@ -72,8 +72,10 @@ def test_target_from_another_take_placed_by_offset_and_turn(model, take):
 def test_take_in_metres_is_refused_with_the_ratio_and_the_fix(model, take):
     metres = conform.rescale(take, 0.01)
     with pytest.raises(inbetween.InbetweenError, match=r"0\.01 times as long.*rescale it by 100.*--scale 100"):
-        inbetween.inbetween_clip(model, metres, 100, 100 + LENGTH + 1, num_samples=SAMPLES)
-    fixed = inbetween.inbetween_takes(model, metres, 100, metres, 100 + LENGTH + 1, None, SAMPLES, scale=100.0,
+        takes.inbetween_clip(model, metres, 100, 100 + LENGTH + 1, num_samples=SAMPLES)
+    with pytest.raises(inbetween.InbetweenError, match=r"rescale it by 10 on top of the scale 10 .*--scale 100"):
+        takes.conform_take(model, metres, scale=10.0)  # the fix names the whole factor, not the missing part
+    fixed = takes.inbetween_takes(model, metres, 100, metres, 100 + LENGTH + 1, None, SAMPLES, scale=100.0,
                                       output="clip")
     g = fixed[0].global_positions()
     want = metres.global_positions()
@@ -89,8 +91,8 @@ def test_model_of_z_up_files_takes_a_z_up_take_and_gives_it_back_z_up(model, tak
     z_take = conform.rescale(conform.from_y_up(take, (0.0, 0.0, 1.0)), 1 / 2.54)
     assert np.abs(z_take.global_positions()[100, 13, 2] - take.global_positions()[100, 13, 1] / 2.54) < 1e-9
     kw = dict(length=LENGTH, num_samples=2, turn_degrees=30.0, output="appended")
-    y_out = inbetween.inbetween_takes(model, take, 100, take, 300, offset=(0.0, 0.0, 200.0), **kw)
-    z_out = inbetween.inbetween_takes(z_model, z_take, 100, z_take, 300, offset=(0.0, -200 / 2.54, 0.0), **kw)
+    y_out = takes.inbetween_takes(model, take, 100, take, 300, offset=(0.0, 0.0, 200.0), **kw)
+    z_out = takes.inbetween_takes(z_model, z_take, 100, z_take, 300, offset=(0.0, -200 / 2.54, 0.0), **kw)
     for y, z in zip(y_out, z_out):
         back = conform.to_y_up(conform.rescale(z, 2.54), (0.0, 0.0, 1.0)).global_positions()
         np.testing.assert_allclose(back, y.global_positions(), atol=1e-3)  # float32 rollout, ~1e-5 cm apart
@@ -102,7 +104,7 @@ def test_take_at_120_fps_is_resampled_and_keeps_the_keyframes(model, take):
     assert fast.fps == 120.0 and anchor == 80 and fast.num_frames == 237
     np.testing.assert_array_equal(fast.rotations[80], take.rotations[100])
     a, b = 80, 80 + 4 * (LENGTH + 1)  # frames 100 and 109 of the 30 fps take
-    clips = inbetween.inbetween_clip(model, fast, a, b, num_samples=SAMPLES)
+    clips = takes.inbetween_clip(model, fast, a, b, num_samples=SAMPLES)
     out = clips[0]
     assert out.fps == 30.0  # written at the model's rate, so it plays at the right speed
     assert out.num_frames == 60  # the 120 fps take spans 60 frames at 30 fps
@@ -132,13 +134,13 @@ def _with_extra_root(motion):
 def test_extra_joints_are_mapped_by_name_and_missing_ones_named(model, take):
     extra = _with_extra_root(take[90:120])
     np.testing.assert_allclose(extra.global_positions()[:, 1:], take[90:120].global_positions(), atol=1e-9)
-    out = inbetween.inbetween_clip(model, extra, 10, 10 + LENGTH + 1, num_samples=SAMPLES)[0]
+    out = takes.inbetween_clip(model, extra, 10, 10 + LENGTH + 1, num_samples=SAMPLES)[0]
     assert out.skeleton.names == take.skeleton.names  # written on the model's skeleton
     np.testing.assert_allclose(out.global_positions()[[10, 19]], take[[100, 109]].global_positions(), atol=1e-4)
     sk = take.skeleton
     renamed = Skeleton(sk.names[:13] + ("Skull",) + sk.names[14:], sk.parents, sk.offsets)
     with pytest.raises(inbetween.InbetweenError, match=r"lacks joint Head .*has Skull instead"):
-        inbetween.inbetween_clip(model, dataclasses.replace(take, skeleton=renamed), 100, 109, num_samples=SAMPLES)
+        takes.inbetween_clip(model, dataclasses.replace(take, skeleton=renamed), 100, 109, num_samples=SAMPLES)
 
 
 def _cli(*args):

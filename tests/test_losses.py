@@ -147,3 +147,28 @@ def test_prepare_dataset_on_synthetic_windows():
     bad = C.apply_overrides(config, ["data.parents=-1,0,1"])
     with pytest.raises(F.DatasetError, match="parents"):
         F.prepare_dataset(windows, None, bad)
+
+
+def test_foot_skate_loss_counts_only_feet_that_move_while_in_contact():
+    feet = S.LAFAN1_FEET
+    pos = jnp.zeros((1, 4, J, 3))
+    contacts = jnp.array([[[1.0, 0, 0, 0]] * 4])
+    mask = jnp.ones((1, 4), bool)
+    assert float(LS.foot_skate_loss(pos, contacts, mask, feet, 100.0)) == 0.0  # nothing moves
+    slide = pos.at[0, 2:, feet[0], 0].set(10.0)  # LeftFoot moves 10 cm from frame 1 to frame 2
+    np.testing.assert_allclose(LS.foot_skate_loss(slide, contacts, mask, feet, 100.0), 0.1 / 3, rtol=1e-6)
+    assert float(LS.foot_skate_loss(slide, contacts.at[0, 2, 0].set(0.0), mask, feet, 100.0)) == 0.0  # airborne
+    assert float(LS.foot_skate_loss(slide.at[0, 2:, 0, 0].set(10.0), contacts * 0, mask, feet, 100.0)) == 0.0
+    assert float(LS.foot_skate_loss(slide, contacts, mask.at[0, 2].set(False), feet, 100.0)) == 0.0  # masked
+
+
+def test_foot_skate_weight_adds_its_term_to_the_generator_objective(setup):
+    config, params, phase_params, batch = setup
+    config = C.apply_overrides(config, ["loss.foot_skate_weight=2.0"])
+    total, terms, _ = LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), config, jnp.int32(8))
+    lc = config.loss
+    assert float(terms["foot_skate"]) > 0  # random contacts and a random rollout: some feet in contact move
+    base, base_terms, _ = LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1),
+                                            C.apply_overrides(config, ["loss.foot_skate_weight=0"]), jnp.int32(8))
+    assert "foot_skate" not in base_terms
+    np.testing.assert_allclose(total - base, lc.foot_skate_weight * terms["foot_skate"], rtol=1e-4)

@@ -40,6 +40,9 @@ def test_placed_target_script_on_a_tiny_model(tiny_run, tmp_path):
     # the figures are those of the written BVH files, recomputed here
     first = bvh.load(out / "inbetween" / "walk4_subject1_sample0.bvh")
     assert first.num_frames == 8
+    # --offset-from start (the default): the placed target's root is 300 cm along x from the start's root
+    np.testing.assert_allclose((first.positions[-1, 0] - first.positions[0, 0])[[0, 2]], [300.0, 0.0], atol=1e-3)
+    assert summary["target"]["offset_from"] == "start"
     speed = np.linalg.norm(np.diff(first.positions[:, 0], axis=0), axis=-1)
     np.testing.assert_allclose(measured["per_sample"][0]["root_speed_cm_per_frame"], speed, atol=1e-4)
     assert measured["per_sample"][0]["max_jump"] == pytest.approx(np.abs(np.diff(speed)).max())

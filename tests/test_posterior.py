@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from stitchjax import config as C
-from stitchjax import inbetween, losses, metrics, parallel, train
+from stitchjax import datasets, evaluate, losses, metrics, parallel, train, trained_model
 from stitchjax import networks as N
 from stitchjax import rollout as RO
 
@@ -64,33 +64,33 @@ def test_evaluation_method_ignores_the_ground_truth_and_noise_scale_zero_collaps
     from stitchjax.windows import Windows
     from stitchjax import sample, lafan1
 
-    model = inbetween.load_model(tiny_run)
+    model = trained_model.load_model(tiny_run)
     windows = lafan1.load_windows(sample.sample_dir(), ("subject5",), window=30, offset=40)[:2]
     rng = np.random.default_rng(0)
     changed_rot = np.array(windows.rotations)
     changed_rot[:, 10:10 + LENGTH] = rng.normal(size=changed_rot[:, 10:10 + LENGTH].shape)
     changed_rot /= np.linalg.norm(changed_rot, axis=-1, keepdims=True)
     changed = Windows(**{**{f: getattr(windows, f) for f in windows.__dataclass_fields__}, "rotations": changed_rot})
-    method = inbetween.model_method(model)
+    method = evaluate.model_method(model)
     a = method(windows, 9, LENGTH, 4, 3)
     b = method(changed, 9, LENGTH, 4, 3)
     for x, y in zip(a, b):
         np.testing.assert_array_equal(x, y)
     spread = metrics.joint_spread_per_window(a[1])
     assert np.all(spread > 0)
-    still = inbetween.model_method(model, noise_scale=0.0)(windows, 9, LENGTH, 4, 3)
+    still = evaluate.model_method(model, noise_scale=0.0)(windows, 9, LENGTH, 4, 3)
     for x in still:
         np.testing.assert_array_equal(x, np.broadcast_to(x[:1], x.shape))  # every sample identical
     assert np.all(metrics.apd_per_window(still[1]) == 0)
-    half = inbetween.model_method(model, noise_scale=0.5)(windows, 9, LENGTH, 4, 3)
+    half = evaluate.model_method(model, noise_scale=0.5)(windows, 9, LENGTH, 4, 3)
     assert 0 < metrics.joint_spread_per_window(half[1]).mean() < spread.mean()
-    with pytest.raises(inbetween.InbetweenError, match="noise_scale"):
-        inbetween.model_method(model, noise_scale=-1.0)(windows, 9, LENGTH, 4, 3)
+    with pytest.raises(trained_model.InbetweenError, match="noise_scale"):
+        evaluate.model_method(model, noise_scale=-1.0)(windows, 9, LENGTH, 4, 3)
 
 
 def test_one_train_step_changes_the_posterior_and_the_kl_is_kl_q_p():
     config = tiny_config()
-    data, _ = train.load_training_data(config, None)
+    data, _ = datasets.load_training_data(config, None)
     data = {k: (x[:8, :10] if x.shape[1] > 1 else x[:8]) for k, x in data.items()}
     mesh = parallel.make_mesh()
     state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)

@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from stitchjax import checkpoints, config as config_lib, parallel, train
+from stitchjax import checkpoints, config as config_lib, datasets, parallel, schedule, train
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 FRAMES = 10  # tiny windows: transitions of up to 8 frames
@@ -23,7 +23,7 @@ def tiny_config(*extra):
 @pytest.fixture(scope="module")
 def dataset():
     """The bundled sample's training windows cut to FRAMES frames (a few dozen windows)."""
-    data, stats = train.load_training_data(tiny_config(), None)
+    data, stats = datasets.load_training_data(tiny_config(), None)
     return {name: (x[:24, :FRAMES] if x.shape[1] > 1 else x[:24]) for name, x in data.items()}, stats
 
 
@@ -33,11 +33,11 @@ def _device_data(data, mesh):
 
 def test_schedule_and_buckets():
     tc = tiny_config("train.min_length=5", "train.max_length=48", "train.epochs_per_length=2").train
-    assert [train.transition_length(s, 10, tc) for s in (0, 19, 20, 39, 40, 10_000)] == [5, 5, 6, 6, 7, 48]
-    assert train.steps_per_epoch(100, 32) == 3
-    assert train.bucket_window(7, tc) is None
+    assert [schedule.transition_length(s, 10, tc) for s in (0, 19, 20, 39, 40, 10_000)] == [5, 5, 6, 6, 7, 48]
+    assert schedule.steps_per_epoch(100, 32) == 3
+    assert schedule.bucket_window(7, tc) is None
     tb = tiny_config("train.length_buckets=10,30,48").train
-    assert [train.bucket_window(n, tb) for n in (5, 10, 11, 48)] == [12, 12, 32, 50]
+    assert [schedule.bucket_window(n, tb) for n in (5, 10, 11, 48)] == [12, 12, 32, 50]
 
 
 @pytest.mark.parametrize("extra", [(), ("model.matmul_dtype=bfloat16",)])
@@ -118,6 +118,42 @@ def test_resume_refuses_a_different_model_config(dataset, tmp_path):
         train.train(tiny_config("model.latent_dim=8"), tmp_path, max_steps=6, dataset=data, stats=stats,
                     progress=False)
 
+
+
+def test_init_from_starts_a_new_run_from_another_runs_state(dataset, tmp_path):
+    data, stats = dataset
+    kwargs = dict(dataset=data, stats=stats, progress=False)
+    train.train(tiny_config(), tmp_path / "base", max_steps=3, **kwargs)
+    base, _ = _params(tmp_path / "base")
+    with pytest.raises(train.TrainingError, match="model config differs"):
+        train.train(tiny_config("model.latent_dim=8"), tmp_path / "bad", max_steps=4,
+                    init_from=tmp_path / "base", **kwargs)
+    copy = train.train(tiny_config(), tmp_path / "copy", max_steps=4, init_from=tmp_path / "base", **kwargs)
+    train.train(tiny_config(), tmp_path / "base", max_steps=4, **kwargs)  # the base run resumed to step 4
+    assert copy["start_step"] == 3
+    for a, b in zip(jax.tree.leaves(_params(tmp_path / "copy")[0]), jax.tree.leaves(_params(tmp_path / "base")[0])):
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)  # the same state, key and optimiser moments
+    tuned_config = tiny_config("loss.kl_weight=0.5")  # a loss change: allowed when fine-tuning
+    summary = train.train(tuned_config, tmp_path / "tuned", max_steps=4, init_from=tmp_path / "base", **kwargs)
+    assert summary["start_step"] == 4 and summary["step"] == 4
+    manager = checkpoints.open_manager(tmp_path / "tuned")
+    _, saved_config, _ = checkpoints.restore(manager, train.abstract_train_state(tuned_config))
+    checkpoints.close(manager)
+    assert saved_config["loss"]["kl_weight"] == 0.5
+    assert train.train(tuned_config, tmp_path / "tuned", max_steps=5, **kwargs)["start_step"] == 4  # resumes
+
+
+def test_dataset_registry_has_every_allowed_name_and_its_facts():
+    assert datasets.names() == config_lib.CHOICES[("data", "dataset")]
+    lafan = datasets.skeleton_facts(None, tiny_config().data)
+    assert lafan["feet_names"] == ["LeftFoot", "LeftToe", "RightFoot", "RightToe"]
+    h36m = datasets.get("h36m")
+    assert [h36m.joint_names[j] for j in h36m.feet] == ["LeftFoot", "LeftToeBase", "RightFoot", "RightToeBase"]
+    assert datasets.skeleton_facts(None, config_lib.DataConfig(dataset="bvh_folder")) is None  # read from files
+    with pytest.raises(FileNotFoundError, match="needs --data"):
+        datasets.get("h36m").data_dir(None)
+    with pytest.raises(ValueError, match="expected one of lafan1, h36m, bvh_folder"):
+        datasets.get("cmu")
 
 def test_nan_guard_names_the_term_and_keeps_last_good_checkpoint(dataset, tmp_path):
     data, stats = dataset
@@ -209,3 +245,25 @@ def test_cli_help_and_bad_arguments(tmp_path):
     bad = subprocess.run(cli + ["--config", "quickstart", "--workdir", str(tmp_path), "model.nope=1"],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "no field 'nope'" in bad.stderr
+
+
+def test_validation_during_training_logs_model_and_interpolation_rows(dataset, tmp_path):
+    from stitchjax import reporting, validation
+
+    data, stats = dataset
+    config = tiny_config("train.eval_every=2", "train.eval_windows=3", "train.eval_lengths=5",
+                         "train.eval_samples=2")
+    summary = train.train(config, tmp_path, max_steps=4, dataset=data, stats=stats, progress=False,
+                          make_validator=validation.make_validator)
+    records = reporting.read_metrics(tmp_path / "metrics.jsonl")
+    rows = [r for r in records if "val_ade_L5" in r]
+    assert [r["step"] for r in rows] == [2, 4]
+    for row in rows:
+        for metric in validation.METRICS:
+            assert np.isfinite(row[f"val_{metric}_L5"]) and np.isfinite(row[f"val_{metric}_L5_interp"])
+        assert row["val_ade_L5"] > 0 and row["val_apd_L5"] > 0  # sampled from the prior: samples differ
+        assert row["val_apd_L5_interp"] == 0.0 and row["val_s"] > 0
+    assert rows[0]["val_ade_L5"] != rows[1]["val_ade_L5"]  # the current parameters, not the first ones
+    assert rows[0]["val_ade_L5_interp"] == rows[1]["val_ade_L5_interp"]  # the same fixed windows
+    assert "loss" in summary["final"]  # the last training record, not the validation one
+    assert "| val_npss_L5 |" in (tmp_path / "report.md").read_text()

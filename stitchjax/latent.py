@@ -1,0 +1,82 @@
+"""Latent-space exploration: rollouts with given latent noise, and every per-step output of them.
+
+    start, target, offsets = window_keyframes(model, windows, start=9, length=30)
+    noise = rng.standard_normal((len(windows), 8) + noise_shape(model, 30))   # (B, S, n, 2, latent)
+    out = rollout_details(model, start, target, offsets, 30, noise)   # + "mu", "mu_target", "stitch_loss", ...
+
+Used by ``notebooks/latent_space.ipynb`` (PCA of the codes, where the forward and backward latents meet,
+latent interpolation, diversity against length); sampling from the prior is ``stitchjax.inbetween``.
+"""
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from stitchjax import rollout as rollout_lib
+from stitchjax.inbetween import _alignment, _check_request, _check_skeleton, stitch_losses
+from stitchjax.trained_model import InbetweenError, Model
+
+__all__ = ["noise_shape", "window_keyframes", "rollout_details"]
+
+
+def noise_shape(model: Model, length: int) -> tuple:
+    """Shape (n, 2, latent_dim) of the standard-normal noise one rollout of ``length`` frames draws:
+    n scan steps, [forward, backward] generator, latent size."""
+    return (rollout_lib.num_steps(model.config, int(length)), 2, int(model.config.model.latent_dim))
+
+
+def _rollout_with_noise(params, phase_params, start, target, offsets, noise, config, length):
+    """``rollout.rollout`` with its latent noise (n, 2, latent) given instead of drawn from a key."""
+    return rollout_lib.rollout(params, phase_params, start, target, offsets, jax.random.PRNGKey(0), config,
+                               length, length, noise=noise)
+
+
+@functools.lru_cache(maxsize=16)
+def _compiled_details(config, length: int):
+    def one(params, phase_params, start, target, offsets, noise):
+        out = _rollout_with_noise(params, phase_params, start, target, offsets, noise, config, length)
+        out["stitch_loss"] = stitch_losses(out)
+        return out
+
+    per_window = jax.vmap(one, in_axes=(None, None, None, None, None, 0))  # samples
+    return jax.jit(jax.vmap(per_window, in_axes=(None, None, 0, 0, 0, 0)))  # windows
+
+
+def window_keyframes(model: Model, windows, start: int, length: int) -> tuple:
+    """Keyframes of B windows in the model's frame: (start, target, offsets) as ``sample_transitions``
+    takes them; target = frame start + length + 1; contacts from ``windows.contacts``."""
+    _check_skeleton(model, windows.skeleton)
+    target = start + length + 1
+    if not 0 <= start < target < windows.rotations.shape[1]:
+        raise InbetweenError(f"keyframes {start} and {target} are outside windows of {windows.rotations.shape[1]} frames")
+    rot, pos = np.asarray(windows.rotations, np.float64), np.asarray(windows.positions, np.float64)
+    aligned_rot, aligned_pos, _, _ = _alignment(rot[:, start], pos[:, start], rot[:, target], pos[:, target],
+                                                model.parents, model.forward_axis)
+    contacts = np.asarray(windows.contacts, np.float64)
+    start_kf = {"rotations": aligned_rot[:, 0], "root_position": aligned_pos[:, 0, 0], "contacts": contacts[:, start]}
+    target_kf = {"rotations": aligned_rot[:, 1], "root_position": aligned_pos[:, 1, 0],
+                 "contacts": contacts[:, target]}
+    return start_kf, target_kf, pos[:, start]
+
+
+def rollout_details(model: Model, start: dict, target: dict, offsets, length: int, noise) -> dict:
+    """Full rollouts (model frame) of B keyframe pairs with given latent noise, for exploring the latent space.
+
+    start, target, offsets: as from :func:`window_keyframes` (leading B); noise: (B, S, n, 2, latent)
+    standard-normal draws (``noise_shape``), e.g. interpolations between two draws. Returns numpy
+    ``rollout.rollout`` dicts with leading (B, S): the stitched motion, the forward and backward
+    generators' per-step outputs including their Gaussians ("mu", "mu_target", "mu_blend", ...) and
+    "stitch_loss" (B, S). Compiled once per (length, B, S).
+    """
+    _check_request(model, length, 1, 0, warn=True)
+    noise = jnp.asarray(noise, jnp.float32)
+    expected = noise_shape(model, length)
+    if noise.ndim != 5 or noise.shape[2:] != expected:
+        raise InbetweenError(f"noise must be (B, S) + {expected} for length {length}, got {noise.shape}")
+    as32 = functools.partial(jnp.asarray, dtype=jnp.float32)
+    out = _compiled_details(model.config, int(length))(
+        model.params, model.phase_params, jax.tree.map(as32, start), jax.tree.map(as32, target), as32(offsets), noise)
+    return jax.tree.map(np.asarray, out)
