@@ -1,5 +1,8 @@
 """Read and write BVH motion files.
 
+Size (~520 lines): one job, the format; most of the reader is its error reporting, which names the file,
+the line and the fix for every malformed case (tests/test_bvh.py).
+
 A BVH file is a joint hierarchy (names, bone offsets, per-joint channel lists, End Sites) followed by
 a MOTION block with one line of channel values per frame. :func:`load` turns it into a
 :class:`Motion` of local quaternions and local positions; :func:`save` writes one back with the same

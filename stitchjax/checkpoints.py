@@ -21,6 +21,7 @@ import logging
 import os
 import pathlib
 import sys
+import threading
 from typing import Any, Callable
 
 import jax
@@ -145,13 +146,40 @@ def _ignore_closed_loop_errors(kind, error, traceback) -> None:
 
 
 _previous_excepthook = sys.excepthook
+_previous_unraisablehook = sys.unraisablehook
+_previous_threading_excepthook = threading.excepthook
+
+
+def _is_closed_loop_error(error) -> bool:
+    return isinstance(error, RuntimeError) and "Event loop is closed" in str(error)
+
+
+def _ignore_closed_loop_unraisable(unraisable) -> None:
+    """sys.unraisablehook that drops the same error when it surfaces as "Exception ignored in: ..." (asyncio's
+    call_soon_threadsafe from a TensorStore thread) and hands everything else on."""
+    if _is_closed_loop_error(unraisable.exc_value):
+        return
+    _previous_unraisablehook(unraisable)
+
+
+def _ignore_closed_loop_thread_errors(args) -> None:
+    """threading.excepthook that drops the same error raised in a worker thread."""
+    if _is_closed_loop_error(args.exc_value):
+        return
+    _previous_threading_excepthook(args)
 
 
 def _drop_closed_loop_tracebacks() -> None:
-    global _previous_excepthook
+    global _previous_excepthook, _previous_unraisablehook, _previous_threading_excepthook
     if sys.excepthook is not _ignore_closed_loop_errors:
         _previous_excepthook = sys.excepthook
         sys.excepthook = _ignore_closed_loop_errors
+    if sys.unraisablehook is not _ignore_closed_loop_unraisable:
+        _previous_unraisablehook = sys.unraisablehook
+        sys.unraisablehook = _ignore_closed_loop_unraisable
+    if threading.excepthook is not _ignore_closed_loop_thread_errors:
+        _previous_threading_excepthook = threading.excepthook
+        threading.excepthook = _ignore_closed_loop_thread_errors
 
 
 def _silence_pending_read_errors() -> None:

@@ -1,5 +1,8 @@
 """Networks (flax.linen, pure init/apply): the S-CVAE generator and the LSGAN discriminators.
 
+Size (~440 lines): one job, the paper's networks; the generator's parts (encoders, posterior, prior heads,
+latent interpolation, gated experts) each stay a small named module here so one file shows the whole step.
+
 Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step::
 
     state (S) ──► state encoder  (3 FC) ─┐

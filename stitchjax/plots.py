@@ -1,6 +1,8 @@
 """Figures for motions: stick figures, filmstrips, root trajectories, error over time, GIFs; and a
 training run's loss curves.
 
+Size (~460 lines): one job, every figure the project draws, on one set of projection and colour helpers.
+
 Everything takes FK *global* positions (file units, Y-up) and the skeleton's ``parents`` tuple, draws
 on matplotlib's non-interactive Agg canvas (no pyplot, no display), and returns the ``matplotlib.figure.Figure``; pass
 ``path=`` to also write a PNG (or a GIF for :func:`animate`). Figure pixel size = ``figsize * dpi``

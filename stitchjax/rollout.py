@@ -1,5 +1,8 @@
 """Bidirectional aligned rollout with stitching (paper section 3, Eq. 2), for one example; vmap for batches.
 
+Size (~450 lines): one job, the rollout; half of it is docstrings of the frame conventions and of each
+named paper step (``aligning_step``, ``interpolation_weight``, ``stitch``), kept beside the code they fix.
+
 Frames of a transition of length L (L generated in-betweens): 0 = start keyframe, 1..L generated,
 L + 1 = target keyframe. With h = L // 2 and k = min(K, h) (K = model.stitch_buffer):
 

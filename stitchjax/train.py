@@ -1,5 +1,8 @@
 """Training: the train state, one jitted train step and the loop.
 
+Size (~490 lines): one job; the schedule (``schedule.py``), which state a run starts from (``resume.py``),
+devices (``parallel.py``), records (``reporting.py``) and validation (``validation.py``) live elsewhere.
+
 Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `train`):
 
 - `TrainState`: step, params {"forward", "backward", "disc_short", "disc_long"}, phase_params (frozen after

@@ -40,18 +40,6 @@ def _truncate_state(step_folder: pathlib.Path) -> None:
         path.write_bytes(path.read_bytes()[:20])
 
 
-_CLOSED_LOOP_NOISE = ("Traceback (most recent call last):", "asyncio/base_events.py", "self._check_closed()",
-                      "raise RuntimeError('Event loop is closed')", "RuntimeError: Event loop is closed")
-
-
-def _without_orbax_closed_loop_noise(text: str) -> str:
-    """stderr without the lines of the "RuntimeError: Event loop is closed" tracebacks that TensorStore's
-    threads may still print, interleaved, after orbax failed on a broken folder (stitchjax.checkpoints drops
-    those that reach sys.excepthook; some are printed past it). A traceback of any other error keeps its
-    '  File "..."' lines, so the caller checks for those."""
-    return "\n".join(line for line in text.splitlines() if not any(n in line for n in _CLOSED_LOOP_NOISE))
-
-
 def test_corrupt_gzip_is_a_bvherror_naming_the_file(tmp_path):
     data = sample.sample_files(["subject5"])[0].read_bytes()
     assert data[:2] == b"\x1f\x8b"
@@ -119,7 +107,8 @@ def test_train_cli_exit_codes_resume_message_and_checkpoint_fallback(tmp_path):
     assert resumed.returncode == 0, resumed.stderr[-2000:]
     assert f"checkpoint {run / 'checkpoints' / '2'} cannot be restored" in resumed.stderr
     assert "falling back to step 1" in resumed.stderr and "resuming from step 1" in resumed.stderr
-    assert '  File "' not in _without_orbax_closed_loop_noise(resumed.stderr)
+    # one warning line, no traceback: not even TensorStore's late "Event loop is closed" (stitchjax.checkpoints)
+    assert "Traceback" not in resumed.stderr and "Event loop is closed" not in resumed.stderr, resumed.stderr[-3000:]
     names = sorted(p.name for p in (run / "checkpoints").iterdir())
     assert "2.broken" in names and "3" in names  # nothing deleted; training went on from step 1
     steps = [json.loads(line)["step"] for line in (run / "metrics.jsonl").read_text().splitlines()]
