@@ -11,8 +11,10 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import jax.numpy as jnp
+
 __all__ = ["ScheduleError", "steps_per_epoch", "transition_length", "total_steps", "RunPlan", "plan_run",
-           "bucket_window"]
+           "bucket_window", "learning_rate_factor"]
 
 
 class ScheduleError(ValueError):
@@ -71,3 +73,16 @@ def bucket_window(length: int, train_config) -> int | None:
         if length <= bucket:
             return bucket + 2
     raise ScheduleError(f"transition length {length} exceeds the largest of train.length_buckets={buckets}")
+
+
+def learning_rate_factor(step, train_config):
+    """Factor on train.learning_rate at `step` (traced or int): 1 until ``lr_decay_from_step``, then linear
+    to ``lr_decay_to`` at ``lr_decay_until_step``, then ``lr_decay_to``; 1 everywhere when lr_decay_to is 1."""
+    tc = train_config
+    if tc.lr_decay_to == 1.0:
+        return jnp.ones((), jnp.float32)
+    if tc.lr_decay_until_step <= tc.lr_decay_from_step:
+        raise ScheduleError(f"train.lr_decay_until_step={tc.lr_decay_until_step} must be after "
+                            f"train.lr_decay_from_step={tc.lr_decay_from_step}")
+    done = (jnp.asarray(step, jnp.float32) - tc.lr_decay_from_step) / (tc.lr_decay_until_step - tc.lr_decay_from_step)
+    return 1.0 + (tc.lr_decay_to - 1.0) * jnp.clip(done, 0.0, 1.0)

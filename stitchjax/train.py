@@ -197,6 +197,10 @@ def make_update_step(config, mesh: Mesh | None = None,
 
         gen_updates, gen_opt_state = optimizer.update(gen_grads, state.gen_opt_state, generators)
         disc_updates, disc_opt_state = optimizer.update(disc_grads, state.disc_opt_state, discriminators)
+        if config.train.lr_decay_to != 1.0:  # AdamW's update is linear in the learning rate: scale it
+            lr_factor = schedule.learning_rate_factor(state.step, config.train)
+            gen_updates = jax.tree.map(lambda u: u * lr_factor, gen_updates)
+            disc_updates = jax.tree.map(lambda u: u * lr_factor, disc_updates)
         new_params = {**optax.apply_updates(generators, gen_updates),
                       **optax.apply_updates(discriminators, disc_updates)}
         metrics = {"loss": gen_loss, "disc_loss": disc_loss}
@@ -207,6 +211,8 @@ def make_update_step(config, mesh: Mesh | None = None,
         metrics["disc_grad_norm"] = optax.tree.norm(disc_grads)
         metrics = {name: jnp.asarray(value, jnp.float32) for name, value in metrics.items()}
         metrics["length"] = jnp.asarray(length, jnp.int32)
+        if config.train.lr_decay_to != 1.0:
+            metrics["lr"] = config.train.learning_rate * lr_factor
         new_state = state.replace(step=state.step + 1, params=new_params, gen_opt_state=gen_opt_state,
                                   disc_opt_state=disc_opt_state)
         return new_state, metrics

@@ -267,3 +267,20 @@ def test_validation_during_training_logs_model_and_interpolation_rows(dataset, t
     assert rows[0]["val_ade_L5_interp"] == rows[1]["val_ade_L5_interp"]  # the same fixed windows
     assert "loss" in summary["final"]  # the last training record, not the validation one
     assert "| val_npss_L5 |" in (tmp_path / "report.md").read_text()
+
+
+def test_learning_rate_decay_scales_the_update_like_a_smaller_learning_rate(dataset):
+    tc = tiny_config("train.lr_decay_to=0.1", "train.lr_decay_from_step=10", "train.lr_decay_until_step=20").train
+    assert [round(float(schedule.learning_rate_factor(s, tc)), 6) for s in (0, 10, 15, 20, 99)] == [1, 1, 0.55, 0.1, 0.1]
+    data, _ = dataset
+    mesh = parallel.make_mesh()
+    halved = tiny_config("train.learning_rate=2e-4", "train.lr_decay_to=0.5", "train.lr_decay_from_step=-2",
+                         "train.lr_decay_until_step=-1")  # past the decay at step 0: 2e-4 x 0.5
+    after = {}
+    for name, config in (("decayed", halved), ("plain", tiny_config("train.learning_rate=1e-4"))):
+        state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
+        state, metrics = train.make_train_step(config, mesh)(state, _device_data(data, mesh), jnp.int32(6))
+        after[name] = jax.device_get(state.params)
+    assert float(metrics["loss"]) > 0 and "lr" not in metrics
+    for a, b in zip(jax.tree.leaves(after["decayed"]), jax.tree.leaves(after["plain"])):
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7)
