@@ -92,9 +92,8 @@ def _default_facts(config) -> dict:
     facts = datasets.skeleton_facts(None, data)
     if facts is not None and len(facts["joint_names"]) == len(data.parents):
         return facts
-    return {"joint_names": None, "feet": list(LAFAN1_FEET), "up_axis": getattr(data, "up_axis", "") or "+y",
-            "forward_axis": getattr(data, "forward_axis", "") or "+y",
-            "unit_scale": float(getattr(data, "unit_scale", 0.0)) or 1.0}
+    return {"joint_names": None, "feet": list(LAFAN1_FEET), "up_axis": data.up_axis or "+y",
+            "forward_axis": data.forward_axis or "+y", "unit_scale": float(data.unit_scale) or 1.0}
 
 
 def _facts_fields(config, facts: dict | None) -> dict:
