@@ -166,7 +166,7 @@ def main(argv=None) -> int:
     parser.add_argument("--start-frame", type=int, default=300)
     parser.add_argument("--target-bvh", default="obstacles1_subject5.bvh", help="target take (path or name)")
     parser.add_argument("--target-frame", type=int, default=500)
-    parser.add_argument("--length", type=int, default=30, help="generated frames (default 30)")
+    parser.add_argument("--length", type=int, default=50, help="generated frames (default 50: 300 cm is a walk)")
     parser.add_argument("--offset", default="300,0,0", help="target root offset x,y,z in cm (default 300,0,0)")
     parser.add_argument("--offset-from", choices=("start", "file"), default="start",
                         help="--offset from the start keyframe's root (default) or from the target take's own place")

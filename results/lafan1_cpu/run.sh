@@ -47,8 +47,9 @@ case "${1:-}" in
     python results/variance_blend.py --checkpoint runs/cvae_noprior --data "$DATA" --json $OUT/variance_blend.json
     ;;
   figures)
-    python results/figures.py --checkpoint runs/cvae_noprior --data "$DATA" --out $OUT/figures
-    python results/placed_target.py --checkpoint runs/cvae_noprior --data "$DATA" --out $OUT/placed_target || true
+    python results/figures.py --checkpoint runs/cvae_long --data "$DATA" --out $OUT/figures
+    python results/placed_target.py --checkpoint runs/cvae_long --data "$DATA" --length 50 --out $OUT/placed_target
+    python results/cmu_contacts.py --data ../shared/data/cmu --workdir runs/cmu --out results/cmu
     ;;
   *) echo "usage: bash results/lafan1_cpu/run.sh train|train_long|evaluate|evaluate_long|figures" >&2; exit 2 ;;
 esac
