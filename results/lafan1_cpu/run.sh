@@ -36,6 +36,8 @@ case "${1:-}" in
     for run in cvae_long footskate; do
       bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --json $OUT/${run}_final.json
     done
+    bin/evaluate model --checkpoint runs/cvae_long --data "$DATA" --samples 10 --search 4 --noise-scales "" \
+      --json $OUT/cvae_long_final_search4.json
     ;;
   evaluate)
     for run in cvae_noprior none; do
