@@ -137,8 +137,8 @@ class TrainConfig:
     lr_decay_to: float = 1.0  # reason: not in the paper (1 = constant, the paper's): the learning rate falls
     # linearly to this fraction of train.learning_rate from lr_decay_from_step to lr_decay_until_step, and
     # stays there (schedule.learning_rate_factor; a train.* field, so a resumed run may add it)
-    lr_decay_from_step: int = 0
-    lr_decay_until_step: int = 0
+    lr_decay_from_step: int = 0  # reason: the step the decay starts at (with lr_decay_to < 1)
+    lr_decay_until_step: int = 0  # reason: the step it reaches lr_decay_to (must be after lr_decay_from_step)
     adam_b1: float = 0.5  # paper
     adam_b2: float = 0.9  # paper
     weight_decay: float = 1e-5  # paper
