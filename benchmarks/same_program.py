@@ -25,10 +25,11 @@ import sys
 sys.path.insert(0, sys.argv[1])
 import jax, jax.numpy as jnp
 from stitchjax import config as C, inbetween, parallel, train
-try:
+import os
+if os.path.exists(os.path.join(sys.argv[1], "stitchjax", "trained_model.py")):
     from stitchjax.trained_model import random_model
-except ImportError:  # checkouts from before the model-loading module
-    random_model = inbetween.random_model
+else:  # checkouts from before the model-loading module (not found by import: an editable install elsewhere
+    random_model = inbetween.random_model  # may still resolve the name)
 cfg = C.load_config(sys.argv[1] + "/configs/lafan1_cpu.py")
 mesh = parallel.make_mesh()
 update = train.make_train_step(cfg, mesh, 52).update

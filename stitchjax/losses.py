@@ -12,9 +12,11 @@ with "none" the paper's KL(p || N(0, I)).
 
 L_state, L_kl and L_fk are averaged over the forward and backward generators. The generator update
 minimises ``generator_loss`` (everything but L_D); the discriminator update minimises
-``discriminator_loss`` = 0.1 L_D. One train step does ONE rollout: ``generator_loss`` returns the
-(stop-gradient) discriminator features of the generated motion as its third output, which
-``discriminator_loss`` takes as its ``generated`` argument.
+``discriminator_loss`` = 0.1 L_D. One train step does ONE rollout (``generator_rollouts``), which
+``generator_objective`` scores; it returns the (stop-gradient) discriminator features of the generated
+motion as its third output, which ``discriminator_loss`` takes as its ``generated`` argument. The rollout
+needs the whole ``Config`` (it is the model); the loss terms take only the sections they read
+(``loss_config``, ``model_config``, ``data_config``).
 
 Norms: ``loss.reduction="sum"`` takes ||.||_1 literally (sum over the components of a frame), then the
 mean over valid frames and the batch; "mean" also averages over components. Positions enter FK,
@@ -134,15 +136,15 @@ def foot_skate_loss(global_positions, contacts, mask, feet, position_scale: floa
     return masked_mean(_norm1(weighted, reduction, (-2, -1)), valid)
 
 
-def _foot_skate_term(out, batch, config):
+def _foot_skate_term(out, batch, loss_config, data_config):
     """loss.foot_skate_weight's term on the stitched motion `out`, with the dataset's feet."""
-    feet = datasets.get(config.data.dataset).feet
+    feet = datasets.get(data_config.dataset).feet
     if feet is None:
-        raise ValueError(f"loss.foot_skate_weight needs a dataset with fixed feet; {config.data.dataset!r} "
+        raise ValueError(f"loss.foot_skate_weight needs a dataset with fixed feet; {data_config.dataset!r} "
                          "reads them from its files (set loss.foot_skate_weight=0)")
     t = out["global_positions"].shape[1]
     return foot_skate_loss(out["global_positions"], batch["contacts"][:, :t], out["mask"], feet,
-                           config.data.position_scale, config.loss.reduction)
+                           data_config.position_scale, loss_config.reduction)
 
 
 def lsgan_generator_loss(fake_scores, mask):
@@ -155,12 +157,12 @@ def lsgan_discriminator_loss(real_scores, fake_scores, mask):
     return 0.5 * masked_mean(jnp.square(real_scores - 1.0), mask) + 0.5 * masked_mean(jnp.square(fake_scores), mask)
 
 
-def disc_features(global_positions, root_positions, config):
+def disc_features(global_positions, root_positions, data_config):
     """Per-frame discriminator input (..., T, (J-1)*3 + 3): joint positions relative to the root joint
     and the root velocity (frame 0: 0), both scaled (``data.position_scale``, ``data.velocity_scale``)."""
-    rel = (global_positions[..., 1:, :] - global_positions[..., :1, :]) / config.data.position_scale
+    rel = (global_positions[..., 1:, :] - global_positions[..., :1, :]) / data_config.position_scale
     rel = rel.reshape(rel.shape[:-2] + (-1,))
-    vel = F.root_velocities(root_positions, config.data.velocity_scale)
+    vel = F.root_velocities(root_positions, data_config.velocity_scale)
     return jnp.concatenate([rel, vel], axis=-1)
 
 
@@ -172,55 +174,56 @@ def _window_mask(motion_mask, window: int):
     return start + window <= count
 
 
-def direction_targets(batch, length, num_steps: int, backward: bool, config):
+def direction_targets(batch, length, num_steps: int, backward: bool, data_config):
     """Ground truth for one direction's per-step outputs (``rollout.direction_frames``)."""
-    return rollout_lib.direction_frames(batch, length, num_steps, backward, config)
+    return rollout_lib.direction_frames(batch, length, num_steps, backward, data_config)
 
 
-def _direction_terms(out_dir, target, config):
+def _direction_terms(out_dir, target, loss_config, data_config, posterior: str):
     """Per-direction terms: "state" and its parts, "fk", "kl" (the KL that is reported), "kl_penalty" (what
     the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I)))."""
-    lc = config.loss
+    lc = loss_config
     mask = out_dir["mask"]
     state, parts = state_loss(out_dir, target, mask, lc)
     prior_kl = kl_loss(out_dir["mu_blend"], out_dir["logvar_blend"], mask, lc.reduction)
-    if config.model.posterior == "none":
+    if posterior == "none":
         kl = penalty = prior_kl  # the paper's term: the sampling distribution against N(0, I)
     else:
         kl, penalty = posterior_kl_loss(out_dir, mask, lc.free_bits, lc.reduction)
-    fk = fk_loss(out_dir["global_positions"], target["global_positions"], mask, config.data.position_scale,
+    fk = fk_loss(out_dir["global_positions"], target["global_positions"], mask, data_config.position_scale,
                  lc.reduction)
     return {"state": state, "kl": kl, "kl_penalty": penalty, "kl_prior": prior_kl, "fk": fk, **parts}
 
 
-def _disc_scores(params, config, features):
-    short = networks.make_discriminator(config, "disc_short").apply(params["disc_short"], features)
-    long = networks.make_discriminator(config, "disc_long").apply(params["disc_long"], features)
+def _disc_scores(params, model_config, features):
+    short = networks.make_discriminator(model_config, "disc_short").apply(params["disc_short"], features)
+    long = networks.make_discriminator(model_config, "disc_long").apply(params["disc_long"], features)
     return short, long
 
 
-def _real_features(batch, config, num_frames: int):
-    return disc_features(batch["global_positions"][:, :num_frames], batch["root_positions"][:, :num_frames], config)
+def _real_features(batch, data_config, num_frames: int):
+    return disc_features(batch["global_positions"][:, :num_frames], batch["root_positions"][:, :num_frames],
+                         data_config)
 
 
-def adversarial_generator_terms(params, out, config) -> dict:
+def adversarial_generator_terms(params, out, loss_config, model_config, data_config) -> dict:
     """LSGAN generator terms of a stitched rollout: "adv_g_short", "adv_g_long", "adv_g" (their sum)."""
-    fake = disc_features(out["global_positions"], out["root_positions"], config)
-    if not config.loss.gen_weight:
+    fake = disc_features(out["global_positions"], out["root_positions"], data_config)
+    if not loss_config.gen_weight:
         zero = jnp.zeros((), fake.dtype)
         return {"adv_g_short": zero, "adv_g_long": zero, "adv_g": zero}
     mask = out["mask"]
-    short, long = _disc_scores(params, config, fake)
-    terms = {"adv_g_short": lsgan_generator_loss(short, _window_mask(mask, config.model.disc_short_window)),
-             "adv_g_long": lsgan_generator_loss(long, _window_mask(mask, config.model.disc_long_window))}
+    short, long = _disc_scores(params, model_config, fake)
+    terms = {"adv_g_short": lsgan_generator_loss(short, _window_mask(mask, model_config.disc_short_window)),
+             "adv_g_long": lsgan_generator_loss(long, _window_mask(mask, model_config.disc_long_window))}
     terms["adv_g"] = terms["adv_g_short"] + terms["adv_g_long"]
     return terms
 
 
-def _overlap_stitching_loss(out, config):
+def _overlap_stitching_loss(out, loss_config, data_config):
     ov = out["overlap"]
     return stitching_loss(ov["forward_positions"], ov["backward_positions"], ov["mask"],
-                          config.data.position_scale, config.loss.reduction)
+                          data_config.position_scale, loss_config.reduction)
 
 
 def generator_rollouts(params, phase_params, batch, key, config, length) -> tuple[dict, dict]:
@@ -237,37 +240,39 @@ def generator_rollouts(params, phase_params, batch, key, config, length) -> tupl
     return out, out
 
 
-def generator_objective(params, out, sampled, batch, config, length, kl_scale=1.0):
+def generator_objective(params, out, sampled, batch, length, loss_config, model_config, data_config,
+                        kl_scale=1.0):
     """Generator objective (paper Eq. 9 without L_D) of the rollouts of :func:`generator_rollouts`.
 
     params: the discriminators' params {"disc_short", "disc_long"} (others ignored); batch: the ground truth;
-    kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`).
+    the config sections it reads: ``loss`` (weights), ``model`` (posterior, directions, discriminators) and
+    ``data`` (scales, dataset); kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`).
     Returns (total, terms, generated) as :func:`generator_loss`.
     """
-    lc = config.loss
+    lc = loss_config
     n = out["forward"]["mask"].shape[1]
-    directions = ["forward"] + (["backward"] if config.model.bidirectional else [])
+    directions = ["forward"] + (["backward"] if model_config.bidirectional else [])
     terms = {}
     for name in directions:
-        target = direction_targets(batch, length, n, name == "backward", config)
-        for term, value in _direction_terms(out[name], target, config).items():
+        target = direction_targets(batch, length, n, name == "backward", data_config)
+        for term, value in _direction_terms(out[name], target, lc, data_config, model_config.posterior).items():
             terms[f"{term}_{name}"] = value
     for term in ("state", "kl", "kl_penalty", "kl_prior", "fk", "rotation", "velocity", "contact"):
         terms[term] = sum(terms[f"{term}_{d}"] for d in directions) / len(directions)
     if sampled is not out:
-        terms["stitch_posterior"] = jax.lax.stop_gradient(_overlap_stitching_loss(out, config))
-    terms["stitch"] = _overlap_stitching_loss(sampled, config)
-    terms.update(adversarial_generator_terms(params, sampled, config))
+        terms["stitch_posterior"] = jax.lax.stop_gradient(_overlap_stitching_loss(out, lc, data_config))
+    terms["stitch"] = _overlap_stitching_loss(sampled, lc, data_config)
+    terms.update(adversarial_generator_terms(params, sampled, lc, model_config, data_config))
     if lc.foot_skate_weight:
-        terms["foot_skate"] = _foot_skate_term(out, batch, config)
+        terms["foot_skate"] = _foot_skate_term(out, batch, lc, data_config)
     kl_weight = lc.kl_weight * kl_scale
-    prior_kl = lc.prior_kl_weight * terms["kl_prior"] if config.model.posterior != "none" else 0.0
+    prior_kl = lc.prior_kl_weight * terms["kl_prior"] if model_config.posterior != "none" else 0.0
     total = (terms["state"] + kl_weight * terms.pop("kl_penalty") + prior_kl + lc.stitch_weight * terms["stitch"]
              + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"]
              + lc.foot_skate_weight * terms.get("foot_skate", 0.0))
     for name in directions:
         terms.pop(f"kl_penalty_{name}")
-    fake = disc_features(sampled["global_positions"], sampled["root_positions"], config)
+    fake = disc_features(sampled["global_positions"], sampled["root_positions"], data_config)
     generated = {"features": jax.lax.stop_gradient(fake), "mask": sampled["mask"]}
     return total, terms, generated
 
@@ -290,7 +295,7 @@ def generator_loss(params, phase_params, batch, key, config, length, kl_scale=1.
       for :func:`discriminator_loss`.
     """
     out, sampled = generator_rollouts(params, phase_params, batch, key, config, length)
-    return generator_objective(params, out, sampled, batch, config, length, kl_scale)
+    return generator_objective(params, out, sampled, batch, length, config.loss, config.model, config.data, kl_scale)
 
 
 def discriminator_loss(params, phase_params, batch, key, config, length, generated=None):
@@ -301,13 +306,13 @@ def discriminator_loss(params, phase_params, batch, key, config, length, generat
     """
     if generated is None:
         out = rollout_lib.rollout_batch(jax.lax.stop_gradient(params), phase_params, batch, key, config, length)
-        generated = {"features": disc_features(out["global_positions"], out["root_positions"], config),
+        generated = {"features": disc_features(out["global_positions"], out["root_positions"], config.data),
                      "mask": out["mask"]}
     fake = jax.lax.stop_gradient(generated["features"])
     mask = generated["mask"]
-    real = _real_features(batch, config, fake.shape[1])
-    real_short, real_long = _disc_scores(params, config, real)
-    fake_short, fake_long = _disc_scores(params, config, fake)
+    real = _real_features(batch, config.data, fake.shape[1])
+    real_short, real_long = _disc_scores(params, config.model, real)
+    fake_short, fake_long = _disc_scores(params, config.model, fake)
     m_short = _window_mask(mask, config.model.disc_short_window)
     m_long = _window_mask(mask, config.model.disc_long_window)
     terms = {

@@ -403,9 +403,10 @@ def make_generator(config) -> Generator:
     return Generator(config)
 
 
-def make_discriminator(config, which: str) -> Discriminator:
-    window = config.model.disc_short_window if which == "disc_short" else config.model.disc_long_window
-    return Discriminator(window=window, widths=tuple(config.model.disc_widths))
+def make_discriminator(model_config, which: str) -> Discriminator:
+    """The "disc_short" or "disc_long" discriminator of ``config.model``."""
+    window = model_config.disc_short_window if which == "disc_short" else model_config.disc_long_window
+    return Discriminator(window=window, widths=tuple(model_config.disc_widths))
 
 
 def initial_carry(config, dtype=jnp.float32):
@@ -438,6 +439,6 @@ def init_params(config, key, num_joints: int | None = None) -> dict:
     return {
         "forward": init_generator(k_fwd),
         "backward": init_generator(k_bwd),
-        "disc_short": make_discriminator(config, "disc_short").init(k_short, disc_in),
-        "disc_long": make_discriminator(config, "disc_long").init(k_long, disc_in),
+        "disc_short": make_discriminator(config.model, "disc_short").init(k_short, disc_in),
+        "disc_long": make_discriminator(config.model, "disc_long").init(k_long, disc_in),
     }

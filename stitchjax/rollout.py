@@ -384,7 +384,7 @@ def keyframes_from_batch(batch: dict, length):
     return keyframe(0), keyframe(index), batch["offsets"][:, 0]
 
 
-def direction_frames(batch: dict, length, num_steps: int, backward: bool, config) -> dict:
+def direction_frames(batch: dict, length, num_steps: int, backward: bool, data_config) -> dict:
     """Ground truth of one direction's per-step frames (entry i = forward frame i + 1, or backward frame
     L - i), in that direction's time: "rotations" (B, n, J, 4), "velocities" (B, n, 3) scaled (reversed
     time for the backward direction), "contacts" (B, n, C), "global_positions" (B, n, J, 3)."""
@@ -396,7 +396,7 @@ def direction_frames(batch: dict, length, num_steps: int, backward: bool, config
         return jnp.take(x, frames, axis=1, mode="clip")
 
     root = take(batch["root_positions"])
-    velocity = (root[:, 1:] - root[:, :-1]) / config.data.velocity_scale
+    velocity = (root[:, 1:] - root[:, :-1]) / data_config.velocity_scale
     return {"rotations": take(batch["rotations"])[:, 1:], "velocities": velocity,
             "contacts": take(batch["contacts"])[:, 1:], "global_positions": take(batch["global_positions"])[:, 1:]}
 
@@ -405,7 +405,7 @@ def next_frame_states(batch: dict, length, num_steps: int, config) -> dict:
     """Posterior inputs {"forward", "backward"}: (B, n, S) ground-truth state of the frame each step makes."""
     out = {}
     for name in ("forward", "backward"):
-        d = direction_frames(batch, length, num_steps, name == "backward", config)
+        d = direction_frames(batch, length, num_steps, name == "backward", config.data)
         out[name] = F.state_vector(d["rotations"], d["velocities"], d["contacts"])
     return out
 

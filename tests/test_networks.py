@@ -41,8 +41,8 @@ def test_discriminator_scores_one_per_window_position():
     config = tiny_config("model.disc_long_window=10")  # the paper's 2- and 10-frame windows
     params = N.init_params(config, jax.random.PRNGKey(0))
     feats = jnp.ones((2, 12, N.disc_feature_dim(config)))
-    short = N.make_discriminator(config, "disc_short").apply(params["disc_short"], feats)
-    long = N.make_discriminator(config, "disc_long").apply(params["disc_long"], feats)
+    short = N.make_discriminator(config.model, "disc_short").apply(params["disc_short"], feats)
+    long = N.make_discriminator(config.model, "disc_long").apply(params["disc_long"], feats)
     assert short.shape == (2, 11) and long.shape == (2, 3)
 
 
