@@ -68,11 +68,15 @@ def _saved_config(workdir) -> tuple[int, dict]:
     return step, saved
 
 
+def _differing_sections(saved: dict, config_json: dict, sections: tuple) -> list:
+    """The config sections among `sections` whose saved and current values differ."""
+    return [section for section in sections if saved.get(section) != config_json.get(section)]
+
+
 def _check_same_run(config_json: dict, workdir: pathlib.Path, manager) -> None:
     """Raise ResumeError when the run saved in `workdir` has other data / model / loss / phase settings."""
     saved_step, saved = _saved_config(workdir)
-    changed = [section for section in ("data", "model", "loss", "phase")
-               if saved.get(section) != config_json.get(section)]
+    changed = _differing_sections(saved, config_json, ("data", "model", "loss", "phase"))
     if changed:
         checkpoints.close(manager)
         raise ResumeError(
@@ -92,7 +96,7 @@ def state_from_run(config_json: dict, source: str | os.PathLike, abstract_state:
     _, saved = _saved_config(source)
     if not saved:
         raise ResumeError(f"--init-from {source}: no readable checkpoint (expected {source}/checkpoints/<step>)")
-    changed = [section for section in ("data", "model", "phase") if saved.get(section) != config_json.get(section)]
+    changed = _differing_sections(saved, config_json, ("data", "model", "phase"))
     if changed:
         raise ResumeError(f"--init-from {source}: its {', '.join(changed)} config differs from this one; "
                           "only loss.* and train.* may change when fine-tuning")

@@ -14,7 +14,7 @@ from typing import NamedTuple
 import jax.numpy as jnp
 
 __all__ = ["ScheduleError", "steps_per_epoch", "transition_length", "total_steps", "RunPlan", "plan_run",
-           "bucket_window", "learning_rate_factor"]
+           "bucket_window", "check_lr_decay", "learning_rate_factor"]
 
 
 class ScheduleError(ValueError):
@@ -51,7 +51,8 @@ class RunPlan(NamedTuple):
 def plan_run(num_windows: int, train_config, max_steps: int | None = None) -> RunPlan:
     """The `RunPlan` of `num_windows` training windows (max_steps None: `total_steps`).
 
-    Raises ScheduleError when train.length_buckets has no bucket for train.max_length.
+    Raises ScheduleError when train.length_buckets has no bucket for train.max_length, or the learning-rate
+    decay ends before it starts.
     """
     tc = train_config
     per_epoch = steps_per_epoch(num_windows, tc.batch_size)
@@ -60,6 +61,7 @@ def plan_run(num_windows: int, train_config, max_steps: int | None = None) -> Ru
     if buckets and max(buckets) < tc.max_length:
         raise ScheduleError(f"train.length_buckets={tuple(buckets)} must include a bucket >= train.max_length="
                             f"{tc.max_length} (or set train.length_buckets= to mask one full-window step)")
+    check_lr_decay(tc)  # here, before any work, not when the step is first traced
     checkpoint_every = tc.checkpoint_every_steps or max(1, int(round(tc.checkpoint_every * per_epoch)))
     return RunPlan(per_epoch, max_steps, checkpoint_every)
 
@@ -75,14 +77,21 @@ def bucket_window(length: int, train_config) -> int | None:
     raise ScheduleError(f"transition length {length} exceeds the largest of train.length_buckets={buckets}")
 
 
+def check_lr_decay(train_config) -> None:
+    """ScheduleError when a decay is asked for (lr_decay_to != 1) with lr_decay_until_step not after
+    lr_decay_from_step."""
+    tc = train_config
+    if tc.lr_decay_to != 1.0 and tc.lr_decay_until_step <= tc.lr_decay_from_step:
+        raise ScheduleError(f"train.lr_decay_until_step={tc.lr_decay_until_step} must be after "
+                            f"train.lr_decay_from_step={tc.lr_decay_from_step}")
+
+
 def learning_rate_factor(step, train_config):
     """Factor on train.learning_rate at `step` (traced or int): 1 until ``lr_decay_from_step``, then linear
     to ``lr_decay_to`` at ``lr_decay_until_step``, then ``lr_decay_to``; 1 everywhere when lr_decay_to is 1."""
     tc = train_config
     if tc.lr_decay_to == 1.0:
         return jnp.ones((), jnp.float32)
-    if tc.lr_decay_until_step <= tc.lr_decay_from_step:
-        raise ScheduleError(f"train.lr_decay_until_step={tc.lr_decay_until_step} must be after "
-                            f"train.lr_decay_from_step={tc.lr_decay_from_step}")
+    check_lr_decay(tc)
     done = (jnp.asarray(step, jnp.float32) - tc.lr_decay_from_step) / (tc.lr_decay_until_step - tc.lr_decay_from_step)
     return 1.0 + (tc.lr_decay_to - 1.0) * jnp.clip(done, 0.0, 1.0)

@@ -55,7 +55,12 @@ def make_validator(config, data_dir, stats_json: dict, facts: dict | None) -> Ca
     if tc.eval_every <= 0:
         return None
     entry = datasets.get(config.data.dataset)
-    windows, stats = entry.test_windows(entry.data_dir(data_dir), config.data)
+    try:
+        windows, stats = entry.test_windows(entry.data_dir(data_dir), config.data)
+    except FileNotFoundError as error:
+        raise FileNotFoundError(f"train.eval_every={tc.eval_every} validates on the dataset's test windows, "
+                                f"which cannot be loaded ({error}); add them to --data or set "
+                                "train.eval_every=0") from None
     windows = validation_windows(windows, tc.eval_windows)
     lengths = tuple(int(n) for n in tc.eval_lengths)
     feet = tuple(facts["feet"]) if facts else tuple(entry.feet)

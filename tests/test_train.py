@@ -267,11 +267,16 @@ def test_validation_during_training_logs_model_and_interpolation_rows(dataset, t
     assert rows[0]["val_ade_L5_interp"] == rows[1]["val_ade_L5_interp"]  # the same fixed windows
     assert "loss" in summary["final"]  # the last training record, not the validation one
     assert "| val_npss_L5 |" in (tmp_path / "report.md").read_text()
+    with pytest.raises(FileNotFoundError, match="train.eval_every=2 validates on the dataset's test windows"):
+        validation.make_validator(config, tmp_path / "no_such_folder", {}, None)
 
 
 def test_learning_rate_decay_scales_the_update_like_a_smaller_learning_rate(dataset):
     tc = tiny_config("train.lr_decay_to=0.1", "train.lr_decay_from_step=10", "train.lr_decay_until_step=20").train
     assert [round(float(schedule.learning_rate_factor(s, tc)), 6) for s in (0, 10, 15, 20, 99)] == [1, 1, 0.55, 0.1, 0.1]
+    backwards = tiny_config("train.lr_decay_to=0.1", "train.lr_decay_from_step=20", "train.lr_decay_until_step=10")
+    with pytest.raises(schedule.ScheduleError, match="lr_decay_until_step=10 must be after"):
+        schedule.plan_run(100, backwards.train)  # refused when the run is planned, before any work
     data, _ = dataset
     mesh = parallel.make_mesh()
     halved = tiny_config("train.learning_rate=2e-4", "train.lr_decay_to=0.5", "train.lr_decay_from_step=-2",
