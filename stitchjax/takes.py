@@ -22,7 +22,8 @@ from stitchjax.inbetween import _check_request, _check_skeleton, check_length, i
 from stitchjax.skeleton import forward_kinematics
 from stitchjax.trained_model import InbetweenError, Model
 
-__all__ = ["OUTPUTS", "inbetween_takes", "inbetween_clip", "conform_take", "to_model_frame", "from_model_frame"]
+__all__ = ["OUTPUTS", "inbetween_takes", "inbetween_clip", "conform_take", "to_model_frame", "from_model_frame",
+           "default_length"]
 
 
 def to_model_frame(model: Model, motion: Motion, scale: float = 1.0) -> Motion:
@@ -83,7 +84,7 @@ def _check_frame(motion: Motion, frame, name: str):
 OUTPUTS = ("transition", "appended", "clip")
 
 
-def _default_length(model: Model, start_take: Motion, start_frame: int, target_frame: int, same: bool) -> int:
+def default_length(model: Model, start_take: Motion, start_frame: int, target_frame: int, same: bool) -> int:
     """Frames to generate when none is given: the keyframes' distance in the model's frames, minus one."""
     if not same:
         raise InbetweenError("give the transition length (frames to generate) when the target keyframe "
@@ -150,7 +151,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     _check_frame(target_take, target_frame, "target frame")
     same = target_take is start_take
     if length is None:
-        length = _default_length(model, start_take, start_frame, target_frame, same)
+        length = default_length(model, start_take, start_frame, target_frame, same)
     _check_request(model, length, num_samples, search)
     check_length(model, length, allow_extrapolation)
     start_take = conform_take(model, start_take, "the start take", scale)
