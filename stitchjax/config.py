@@ -121,6 +121,10 @@ class LossConfig:
     # takes the adversarial and stitching terms on that rollout (the posterior rollout alone never sees prior
     # samples); measured on lafan1_cpu: 1.6x the step time, and the prior samples, held only by those two
     # terms, stitch but degenerate (ADE 0.57 m against 0.29 m without it at L = 50; results/README.md)
+    prior_sample_fraction: float = 0.0  # reason: not in the paper (0 = off): this fraction of each batch's
+    # windows is rolled out with z from the prior p, as at inference, instead of from q, and every term scores
+    # them (q is still trained by the KL term); the decoder then sees prior samples at training, at no extra
+    # cost (one rollout; measured in results/README.md)
     foot_skate_weight: float = 0.0  # reason: not in the paper (0 = off): > 0 adds losses.foot_skate_loss, the
     # movement of the feet on frames where the ground truth has them in contact (datasets with fixed feet)
     stitch_weight: float = 0.5  # paper alpha2 (0 = "no stitching loss" ablation)

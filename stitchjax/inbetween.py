@@ -69,10 +69,12 @@ def stitch_losses(result: dict) -> jax.Array:
 
 
 @functools.lru_cache(maxsize=32)
-def _compiled_sampler(config, length: int, num_candidates: int, noise_scale: float = 1.0):
+def _compiled_sampler(config, length: int, num_candidates: int, noise_scale: float = 1.0,
+                      noise_correlation: float = 0.0):
     """jit of (params, phase_params, start, target, offsets, key) -> model-frame transitions.
 
-    z is drawn from the prior p (the ground truth is never an input); noise_scale multiplies its noise.
+    z is drawn from the prior p (the ground truth is never an input); noise_scale multiplies its noise,
+    noise_correlation correlates it over frames (``rollout.correlated_noise``).
 
     start / target: dicts of (B, ...) keyframes as ``rollout.rollout`` wants them; offsets (B, J, 3).
     Every window gets ``num_candidates`` rollouts (keys: split(key, B), then split(window key,
@@ -82,7 +84,7 @@ def _compiled_sampler(config, length: int, num_candidates: int, noise_scale: flo
     """
     def one(params, phase_params, start, target, offsets, key):
         out = rollout_lib.rollout(params, phase_params, start, target, offsets, key, config, length, length,
-                                  noise_scale=noise_scale)
+                                  noise_scale=noise_scale, noise_correlation=noise_correlation)
         return {"rotations": out["rotations"], "root_positions": out["root_positions"],
                 "contacts": out["contacts"], "global_positions": out["global_positions"],
                 "stitch_loss": stitch_losses(out)}
@@ -120,7 +122,8 @@ def _check_request(model: Model, length: int, num_samples: int, search: int, war
 
 
 def sample_transitions(model: Model, start: dict, target: dict, offsets, length: int, num_samples: int,
-                       seed=0, search: int = 0, noise_scale: float = 1.0) -> dict:
+                       seed=0, search: int = 0, noise_scale: float = 1.0,
+                       noise_correlation: float = 0.0) -> dict:
     """Transitions in the model's frame for B keyframe pairs (no alignment, no keyframe overwrite).
 
     start, target: {"rotations" (B, J, 4), "root_position" (B, 3), "contacts" (B, C)}, already centred
@@ -130,12 +133,17 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
     With ``search=M`` the M x S candidates of a window are drawn with the same keys as plain sampling
     of M x S samples, and the S with the lowest stitching loss are returned in increasing order.
     noise_scale: factor on the latent noise (0: every sample is the same, the prior's mean path).
+    noise_correlation: in [0, 1], the noise's correlation from one frame to the next (0: independent per
+      frame, the paper's; ``rollout.correlated_noise``).
     """
     _check_request(model, length, num_samples, search, warn=True)
     if not np.isfinite(noise_scale) or noise_scale < 0:
         raise InbetweenError(f"noise_scale must be a finite number >= 0, got {noise_scale}")
+    if not 0.0 <= noise_correlation <= 1.0:
+        raise InbetweenError(f"noise_correlation must be in [0, 1], got {noise_correlation}")
     candidates = num_samples * max(int(search), 1)
-    fn = _compiled_sampler(model.config, int(length), int(candidates), float(noise_scale))
+    fn = _compiled_sampler(model.config, int(length), int(candidates), float(noise_scale),
+                           float(noise_correlation))
     as32 = functools.partial(jnp.asarray, dtype=jnp.float32)
     out = fn(model.params, model.phase_params, jax.tree.map(as32, start), jax.tree.map(as32, target),
              as32(offsets), _as_key(seed))
@@ -194,7 +202,7 @@ def _check_skeleton(model: Model, skeleton):
 
 def transitions_in_frame(model: Model, start_rotations, start_positions, start_contacts, target_rotations,
                          target_positions, target_contacts, length: int, num_samples: int, seed=0,
-                         search: int = 0, noise_scale: float = 1.0):
+                         search: int = 0, noise_scale: float = 1.0, noise_correlation: float = 0.0):
     """Transitions between B keyframe pairs given in any world frame, returned in that frame.
 
     Keyframes: local rotations (B, J, 4), local positions (B, J, 3) (root = world position, others
@@ -214,7 +222,8 @@ def transitions_in_frame(model: Model, start_rotations, start_positions, start_c
              "contacts": np.asarray(start_contacts, np.float64)}
     target = {"rotations": aligned_rot[:, 1], "root_position": aligned_pos[:, 1, 0],
               "contacts": np.asarray(target_contacts, np.float64)}
-    out = sample_transitions(model, start, target, sp, length, num_samples, seed, search, noise_scale)
+    out = sample_transitions(model, start, target, sp, length, num_samples, seed, search, noise_scale,
+                             noise_correlation)
 
     rotations = out["rotations"].astype(np.float64)  # (B, S, T, J, 4)
     roots = out["root_positions"].astype(np.float64)  # (B, S, T, 3)

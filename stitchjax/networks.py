@@ -233,7 +233,7 @@ class Generator(nn.Module):
     config: Any
 
     @nn.compact
-    def __call__(self, carry, state, target, offset, gamma, phase, eps, next_state=None):
+    def __call__(self, carry, state, target, offset, gamma, phase, eps, next_state=None, use_prior=None):
         """One step for one example (vmap for batches).
 
         Args:
@@ -246,6 +246,8 @@ class Generator(nn.Module):
           next_state: (S,) ground-truth state of the frame this step makes (training only) or None. With
             ``model.posterior="next_frame"`` it feeds the recognition network q(z | h, next_state) and z is
             drawn from q; None draws z from the prior p (inference).
+          use_prior: optional () bool, with next_state: True draws z from the prior p even so (the posterior
+            q is still computed and returned, for the KL term; ``loss.prior_sample_fraction``).
         Returns:
           (new_carry, outputs) with outputs: "velocity" (3,), "rotation_update" (J*4,),
           "contact_logits" (C,), "mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend"
@@ -275,6 +277,8 @@ class Generator(nn.Module):
         else:
             mu_q, logvar_q = mu_b, logvar_b
         z = sample_latent(mu_q, logvar_q, eps)
+        if use_prior is not None:
+            z = jnp.where(use_prior, sample_latent(mu_b, logvar_b, eps), z)
 
         y = jnp.concatenate([z, state, target] + ([h] if m.decoder_uses_lstm else []), axis=-1)
         num_out = 3 + data.num_joints * 4 + data.num_contacts

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from stitchjax import features as F
 from stitchjax import networks
@@ -46,7 +47,8 @@ from stitchjax import scan_gradients
 from stitchjax import skeleton as skel
 
 __all__ = ["rollout", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule", "interpolation_weight",
-           "aligning_step", "stitch", "direction_frames", "next_frame_states", "GAUSSIAN_KEYS"]
+           "aligning_step", "stitch", "direction_frames", "next_frame_states", "correlated_noise",
+           "prior_sample_flags", "GAUSSIAN_KEYS"]
 
 GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend", "mu_posterior",
                  "logvar_posterior")
@@ -92,10 +94,11 @@ def _phase(config, phase_params, state):
 
 
 def _step(params, phase_params, config, carry, current, target, distance, gamma, eps, probes=None,
-          next_state=None):
+          next_state=None, use_prior=None):
     """One generator step: frame dicts (rotations (J,4), root (3,), velocity (3,), contacts (C,)).
 
-    next_state: (S,) ground-truth state of the frame this step makes (posterior training) or None (prior).
+    next_state: (S,) ground-truth state of the frame this step makes (posterior training) or None (prior);
+    use_prior: None or () bool, True = z from the prior even with next_state (``Generator``).
 
     probes: None, or this step's zero probes for the generator's kernels (see :func:`zero_probes`);
     then the fourth output holds the inputs of its kernel matmuls (else None).
@@ -112,7 +115,7 @@ def _step(params, phase_params, config, carry, current, target, distance, gamma,
         offset = jnp.concatenate([offset, (distance / data.fps)[None].astype(offset.dtype)])
     phase = _phase(config, phase_params, state)
     generator = networks.make_generator(config)
-    args = (carry, state, target_state, offset, gamma, phase, eps, next_state)
+    args = (carry, state, target_state, offset, gamma, phase, eps, next_state, use_prior)
     if probes is None:
         carry, out = generator.apply(params, *args)
         inputs = None
@@ -157,7 +160,7 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
 
     carry: (forward LSTM carry, backward LSTM carry, latest forward frame, latest backward frame);
     i: () step index; eps_i: (2, latent) noise; plan: {"length", "n_forward", "n_backward", "start",
-    "target"} (keyframes as frame dicts); probes_i / truth_i: this step's probes and posterior inputs
+    "target"} (keyframes as frame dicts), optionally "use_prior" (see :func:`rollout`); probes_i / truth_i: this step's probes and posterior inputs
     (forward, backward) or None. Returns (carry, outputs) with "forward" / "backward" frame dicts plus
     their Gaussians, and "inputs" (recorded matmul inputs, None unless probed).
     """
@@ -179,7 +182,8 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
         count = plan[f"n_{name}"]
         gamma = interpolation_weight(config, i + 1, count, length).astype(dtype)
         new_carry, new_frame, gaussians, inputs = _step(gen_params[name], phase_params, config, carry_d, frame,
-                                                        target, distance, gamma, eps, probe(name), truth)
+                                                        target, distance, gamma, eps, probe(name), truth,
+                                                        plan.get("use_prior"))
         carry_d, frame = _hold(i < count, (new_carry, new_frame), (carry_d, frame))
         out[name] = {**frame, **gaussians}
         out["inputs"][name] = inputs
@@ -224,7 +228,7 @@ def stitch(fwd_all, bwd_all, length, h, k, num_frames: int, bidirectional: bool 
 
 
 def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int, noise=None,
-            probes=None, ground_truth=None, noise_scale=1.0):
+            probes=None, ground_truth=None, noise_scale=1.0, noise_correlation=0.0, use_prior=None):
     """Generate one transition.
 
     Args:
@@ -246,6 +250,10 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         step makes (:func:`next_frame_states`): z is drawn from the posterior (model.posterior must not be
         "none"). None: z from the prior; the ground truth is never read.
       noise_scale: factor on the latent noise (0 = every sample is the prior's / posterior's mean).
+      use_prior: optional () bool, with ground_truth: True draws z from the prior anyway, as at inference
+        (``loss.prior_sample_fraction``); the posterior's Gaussians are still returned.
+      noise_correlation: static rho in [0, 1], the correlation of each direction's noise from one step to
+        the next (:func:`correlated_noise`); 0 = independent per frame, as in the paper.
     Returns dict (T_out = max_length + 2):
       "rotations" (T_out, J, 4), "root_positions" (T_out, 3), "contacts" (T_out, C),
       "global_positions" (T_out, J, 3): the stitched motion, frame 0 = start and frame L + 1 = target
@@ -262,13 +270,15 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     length = jnp.clip(jnp.asarray(length, jnp.int32), 1, max_length)
     n = num_steps(config, max_length)
     h, k, n_fwd, n_bwd = schedule(config, length)
-    eps = _latent_noise(key, noise, (n, 2, m.latent_dim), dtype, noise_scale)
+    eps = _latent_noise(key, noise, (n, 2, m.latent_dim), dtype, noise_scale, noise_correlation)
     if ground_truth is not None and m.posterior == "none":
         raise ValueError("ground_truth given but model.posterior='none': the model has no posterior")
     truth = (None if ground_truth is None else
              (ground_truth["forward"], ground_truth.get("backward", ground_truth["forward"])))
     start_frame, target_frame = _keyframe_state(start, dtype), _keyframe_state(target, dtype)
     plan = {"length": length, "n_forward": n_fwd, "n_backward": n_bwd, "start": start_frame, "target": target_frame}
+    if use_prior is not None:
+        plan["use_prior"] = jnp.asarray(use_prior, bool)
 
     def body(carry, xs):
         i, eps_i, probes_i, truth_i = xs
@@ -301,9 +311,9 @@ def _keyframe_state(keyframe: dict, dtype) -> dict:
             "velocity": jnp.zeros((3,), dtype), "contacts": keyframe["contacts"]}
 
 
-def _latent_noise(key, noise, shape: tuple, dtype, noise_scale):
+def _latent_noise(key, noise, shape: tuple, dtype, noise_scale, noise_correlation=0.0):
     """The standard normal latent noise `shape` = (num_steps, 2, latent_dim), drawn from `key` unless
-    `noise` is given, times `noise_scale`."""
+    `noise` is given, correlated over steps by `noise_correlation`, times `noise_scale`."""
     if noise is None:
         eps = jax.random.normal(key, shape, dtype)
     else:
@@ -311,7 +321,30 @@ def _latent_noise(key, noise, shape: tuple, dtype, noise_scale):
         if eps.shape != shape:
             raise ValueError(f"noise has shape {eps.shape}; rollout needs {shape} "
                              f"= (num_steps(config, max_length), 2, latent_dim)")
-    return eps * jnp.asarray(noise_scale, dtype)
+    return correlated_noise(eps, noise_correlation) * jnp.asarray(noise_scale, dtype)
+
+
+def correlated_noise(eps, rho: float):
+    """Temporally correlated latent noise: the AR(1) filter e_0 = n_0, e_t = rho e_(t-1) + sqrt(1 - rho^2) n_t
+    along axis 0 (steps) of standard normal noise ``eps`` (n, ...).
+
+    Every e_t stays standard normal (so the prior's spread is unchanged) and corr(e_t, e_s) = rho^|t-s|:
+    rho = 0 returns ``eps`` itself (independent per frame, the paper's sampling), rho = 1 repeats n_0 on
+    every step (one draw per transition). Not in the paper: z from the posterior moves smoothly from frame
+    to frame at training (q follows the ground truth), and independent prior noise per frame does not.
+    rho: a static Python float in [0, 1].
+    """
+    rho = float(rho)
+    if not 0.0 <= rho <= 1.0:
+        raise ValueError(f"noise_correlation must be in [0, 1], got {rho}")
+    if rho == 0.0:
+        return eps
+    n = eps.shape[0]
+    t = np.arange(n)
+    lag = t[:, None] - t[None, :]  # (n, n): t - s
+    weights = np.where(lag >= 0, rho ** np.maximum(lag, 0), 0.0)
+    weights[:, 1:] *= np.sqrt(1.0 - rho * rho)  # innovations n_s, s >= 1, carry sqrt(1 - rho^2)
+    return jnp.tensordot(jnp.asarray(weights, eps.dtype), eps, axes=1)
 
 
 def _pin_keyframes(stitched: dict, start: dict, target: dict, length, t_out: int) -> dict:
@@ -416,7 +449,9 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
 
     Keyframes: frame 0 and frame ``length + 1`` of each window; max_length defaults to T - 2.
     Per-example noise from ``jax.random.split(key, B)``. posterior: draw z from the posterior on the
-    batch's ground truth (when ``model.posterior`` has one); False = from the prior, as at inference.
+    batch's ground truth (when ``model.posterior`` has one); False = from the prior, as at inference. With
+    ``loss.prior_sample_fraction`` > 0 each window draws z from the prior instead with that probability
+    (:func:`prior_sample_flags`).
     Returns rollout's dict with a leading B axis.
     Differentiable in gen_params, phase_params and the batch; with ``train.weight_gradients_after_scan``
     the generators' kernel gradients are formed after the scan (module docstring), same values.
@@ -429,23 +464,34 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
     keys = jax.random.split(key, batch["rotations"].shape[0])
     generators = {name: gen_params[name] for name in ("forward", "backward")}
     length = jnp.asarray(length, jnp.int32)
-    truth = None
+    truth, use_prior = None, None
     if posterior and config.model.posterior != "none":
         truth = next_frame_states(batch, length, num_steps(config, max_length), config)
+        if config.loss.prior_sample_fraction > 0:
+            use_prior = prior_sample_flags(key, keys.shape[0], config.loss.prior_sample_fraction)
 
     def run(generators, inputs, constants, probes):
         phase_params, start, target, offsets, truth = inputs
-        keys, length = constants
+        keys, length, use_prior = constants
 
-        def one(s, t, o, k, g, p):
+        def one(s, t, o, k, g, p, u):
             return rollout(generators, phase_params, s, t, o, k, config, length, max_length, probes=p,
-                           ground_truth=g)
+                           ground_truth=g, use_prior=u)
 
-        return jax.vmap(one)(start, target, offsets, keys, truth, probes)
+        return jax.vmap(one)(start, target, offsets, keys, truth, probes, use_prior)
 
-    inputs, constants = (phase_params, start, target, offsets, truth), (keys, length)
+    inputs, constants = (phase_params, start, target, offsets, truth), (keys, length, use_prior)
     if config.train.weight_gradients_after_scan:
         leading = (keys.shape[0], num_steps(config, max_length))
         run_probed = scan_gradients.gradients_after_scan(run, leading, config.model.matmul_dtype)
         return run_probed(generators, inputs, constants)
     return run(generators, inputs, constants, None)
+
+
+def prior_sample_flags(key, batch_size: int, fraction: float):
+    """(B,) bool: which windows of a training batch draw z from the prior p instead of the posterior q
+    (``loss.prior_sample_fraction``), each with probability ``fraction``, from ``fold_in(key, 1)`` (the
+    per-window noise keys come from ``split(key, B)``)."""
+    if not 0.0 <= fraction <= 1.0:
+        raise ValueError(f"loss.prior_sample_fraction must be in [0, 1], got {fraction}")
+    return jax.random.bernoulli(jax.random.fold_in(key, 1), fraction, (batch_size,))

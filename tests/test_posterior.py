@@ -86,6 +86,12 @@ def test_evaluation_method_ignores_the_ground_truth_and_noise_scale_zero_collaps
     assert 0 < metrics.joint_spread_per_window(half[1]).mean() < spread.mean()
     with pytest.raises(trained_model.InbetweenError, match="noise_scale"):
         evaluate.model_method(model, noise_scale=-1.0)(windows, 9, LENGTH, 4, 3)
+    # one noise draw per transition: the samples still differ, and each moves off the paper's draw
+    shared = evaluate.model_method(model, noise_correlation=1.0)(windows, 9, LENGTH, 4, 3)
+    assert np.all(metrics.joint_spread_per_window(shared[1]) > 0)
+    assert float(np.abs(shared[1] - a[1]).max()) > 1e-3
+    with pytest.raises(trained_model.InbetweenError, match="noise_correlation"):
+        evaluate.model_method(model, noise_correlation=-0.5)(windows, 9, LENGTH, 4, 3)
 
 
 def test_one_train_step_changes_the_posterior_and_the_kl_is_kl_q_p():
@@ -163,3 +169,56 @@ def test_joint_spread_is_the_mean_pairwise_joint_distance():
     c[:, :, 1] = 4.0
     np.testing.assert_allclose(metrics.joint_spread_per_window(np.concatenate([a, c]), frame=0), [0.0])
     assert metrics.joint_spread_per_window(a)[0] == 0.0
+
+
+def test_prior_sample_fraction_rolls_windows_out_from_the_prior(setup):
+    """loss.prior_sample_fraction: a window drawn for the prior moves exactly as at inference (same noise),
+    the others exactly as with the posterior; q is still computed for every window (the KL term)."""
+    config, params, phase_params, batch = setup
+    key = jax.random.PRNGKey(3)
+    mixed_config = C.apply_overrides(config, ["loss.prior_sample_fraction=0.5"])
+    flags = np.asarray(RO.prior_sample_flags(key, batch["rotations"].shape[0], 0.5))
+    assert flags.any() and not flags.all(), "the test batch must hold both kinds of window"
+    mixed = RO.rollout_batch(params, phase_params, batch, key, mixed_config, LENGTH)
+    posterior = RO.rollout_batch(params, phase_params, batch, key, config, LENGTH)
+    prior = RO.rollout_batch(params, phase_params, batch, key, config, LENGTH, posterior=False)
+    np.testing.assert_array_equal(mixed["rotations"][flags], prior["rotations"][flags])
+    np.testing.assert_array_equal(mixed["rotations"][~flags], posterior["rotations"][~flags])
+    assert float(jnp.abs(prior["rotations"] - posterior["rotations"]).max()) > 1e-4
+    q = mixed["forward"]
+    assert float(jnp.abs(q["mu_posterior"][flags] - q["mu_blend"][flags]).max()) > 1e-4  # q still computed
+
+
+def test_prior_sample_fraction_trains_and_keeps_the_paper_path_at_zero(setup):
+    config, params, phase_params, batch = setup
+    key = jax.random.PRNGKey(4)
+    base = losses.generator_loss(params, phase_params, batch, key, config, LENGTH)[0]
+    zero = losses.generator_loss(params, phase_params, batch, key,
+                                 C.apply_overrides(config, ["loss.prior_sample_fraction=0"]), LENGTH)[0]
+    assert float(base) == float(zero)
+    mixed_config = C.apply_overrides(config, ["loss.prior_sample_fraction=1"])
+    grads = jax.grad(lambda p: losses.generator_loss(p, phase_params, batch, key, mixed_config, LENGTH)[0])(params)
+    # with every window from the prior, the posterior is trained by the KL term alone, and still trained
+    post = grads["forward"]["params"]["posterior"]
+    assert max(float(jnp.abs(x).max()) for x in jax.tree.leaves(post)) > 0
+    with pytest.raises(ValueError, match="prior_sample_fraction"):
+        RO.prior_sample_flags(key, 4, 1.5)
+
+
+@pytest.mark.parametrize("rho", [0.5, 0.9])
+def test_correlated_noise_keeps_unit_variance_and_has_the_asked_correlation(rho):
+    eps = jax.random.normal(jax.random.PRNGKey(0), (12, 40000))
+    e = np.asarray(RO.correlated_noise(eps, rho))
+    np.testing.assert_allclose(e.std(axis=1), 1.0, atol=0.02)
+    lag1 = np.mean(e[1:] * e[:-1], axis=1)
+    np.testing.assert_allclose(lag1, rho, atol=0.02)
+    np.testing.assert_allclose(np.mean(e[3:] * e[:-3], axis=1), rho ** 3, atol=0.02)
+
+
+def test_correlated_noise_ends():
+    eps = jax.random.normal(jax.random.PRNGKey(1), (6, 2, 3))
+    assert RO.correlated_noise(eps, 0.0) is eps  # the paper's independent noise, untouched
+    one = np.asarray(RO.correlated_noise(eps, 1.0))
+    np.testing.assert_allclose(one, np.broadcast_to(np.asarray(eps)[:1], one.shape), rtol=1e-6)
+    with pytest.raises(ValueError, match="noise_correlation"):
+        RO.correlated_noise(eps, 1.2)
