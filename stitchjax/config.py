@@ -162,6 +162,10 @@ class TrainConfig:
     weight_gradients_after_scan: bool = True  # reason: same gradients, faster: each generator kernel's
     # gradient is one matmul over all rollout steps after the scan, not one small matmul per step inside
     # it (rollout.py docstring; benchmarks/README.md has the measured difference)
+    scan_remat: str = "none"  # reason: what the rollout's scan keeps for the backward pass (rollout.SCAN_REMAT):
+    # "none" = every intermediate (autodiff's default); "dots" = only matmul outputs, the elementwise work
+    # between them is recomputed in the backward pass (fewer stacked buffers); "nothing" = only the carry
+    # (the whole step recomputed); same gradients (benchmarks/README.md has the measured step times)
     length_buckets: tuple = (12, 24, 50)  # reason: static scan lengths (window cut to bucket + 2 frames,
     # one compile each) instead of one traced length masked in the full window. Measured on 2 loaded CPU
     # cores, lafan1 model, batch 32 (benchmarks/train_step.py): window 50 = 6.26 s/step, 96 s compile;
@@ -278,6 +282,7 @@ CHOICES = {
     ("model", "posterior"): ("next_frame", "none"),
     ("model", "gamma_schedule"): ("direction", "transition"),
     ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
+    ("train", "scan_remat"): ("none", "dots", "nothing"),  # rollout.SCAN_REMAT has one policy each
 }
 
 

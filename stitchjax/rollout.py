@@ -284,6 +284,10 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         i, eps_i, probes_i, truth_i = xs
         return aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probes_i, truth_i)
 
+    policy = SCAN_REMAT[config.train.scan_remat]
+    if policy is not None:
+        body = jax.checkpoint(body, policy=policy)
+
     carry0 = networks.initial_carry(config, dtype)
     steps = jnp.arange(n, dtype=jnp.int32)
     _, seq = jax.lax.scan(body, (carry0, carry0, start_frame, target_frame), (steps, eps, probes, truth))
@@ -303,6 +307,14 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
 
 
 _FRAME_KEYS = ("rotations", "root", "velocity", "contacts")
+
+
+# train.scan_remat -> the jax.checkpoint policy of the scan body (None: no checkpointing, save everything).
+SCAN_REMAT = {
+    "none": None,
+    "dots": jax.checkpoint_policies.dots_saveable,
+    "nothing": jax.checkpoint_policies.nothing_saveable,
+}
 
 
 def _keyframe_state(keyframe: dict, dtype) -> dict:

@@ -150,3 +150,27 @@ def test_weight_gradients_after_scan_equal_per_step_gradients(setup, extra):
         np.testing.assert_allclose(np.asarray(b) / scale, np.asarray(a) / scale, atol=atol)
     if "model.bidirectional=false" in extra:  # the unused backward generator gets zero gradients either way
         assert not any(np.any(np.asarray(g)) for g in jax.tree.leaves(grads_b[0]["backward"]))
+
+
+@pytest.mark.parametrize("policy", ["dots", "nothing"])
+def test_scan_remat_keeps_the_loss_and_gradients(setup, policy):
+    """train.scan_remat changes only what the scan saves for the backward pass, never the gradients."""
+    _, params, phase_params, batch, _ = setup
+    from stitchjax import losses
+
+    assert set(RO.SCAN_REMAT) == set(C.CHOICES[("train", "scan_remat")])
+
+    def gradients(remat):
+        config = tiny_config(f"train.scan_remat={remat}")
+
+        def loss(gen, b):
+            return losses.generator_loss({**params, **gen}, phase_params, b, jax.random.PRNGKey(3), config, 7)[0]
+
+        generators = {k: params[k] for k in ("forward", "backward")}
+        return jax.jit(jax.value_and_grad(loss, argnums=(0, 1)))(generators, batch)
+
+    (loss_a, grads_a), (loss_b, grads_b) = gradients("none"), gradients(policy)
+    np.testing.assert_allclose(loss_b, loss_a, rtol=1e-6)
+    for a, b in zip(jax.tree.leaves(grads_a), jax.tree.leaves(grads_b)):
+        scale = max(float(np.max(np.abs(a))), 1e-6)
+        np.testing.assert_allclose(np.asarray(b) / scale, np.asarray(a) / scale, atol=2e-5)

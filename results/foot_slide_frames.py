@@ -1,0 +1,98 @@
+#!/usr/bin/env python3
+"""Where in a transition the feet slide: the protocol's foot slide (cm/frame) per frame of the transition.
+
+    python results/foot_slide_frames.py --checkpoint runs/cvae_long --data ../shared/data/lafan1 --length 30 \
+        --out results/lafan1_cpu/foot_slide_frames
+
+For the 376 subject5 test windows, the start keyframe of the protocol and transitions of ``--length`` frames:
+the model at noise x0 (the prior's mean path) and x1, interpolation and the ground truth. Entry t is the
+step from frame t to frame t + 1 of the transition (frame 0 = the start keyframe, frame L + 1 = the target),
+scored with ``metrics.foot_slide_parts`` (the protocol's weights) on that pair of frames alone. Writes
+``foot_slide_L<L>.json`` and ``foot_slide_L<L>.png`` into ``--out``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import sys
+
+import numpy as np
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from stitchjax import evaluate, lafan1, metrics, rollout, skeleton, trained_model  # noqa: E402
+from stitchjax.skeleton import forward_kinematics  # noqa: E402
+
+
+def per_frame_slide(positions, ground, feet) -> np.ndarray:
+    """positions (S, B, T, J, 3) global, T = L + 2 frames with both keyframes -> (T - 1,) cm/frame."""
+    out = []
+    for t in range(positions.shape[2] - 1):
+        weighted, count = metrics.foot_slide_parts(positions[:, :, t:t + 2], ground, feet)
+        out.append(float(weighted.sum()) / max(float(count.sum()), 1.0))
+    return np.asarray(out)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--checkpoint", required=True)
+    parser.add_argument("--data", required=True)
+    parser.add_argument("--length", type=int, default=30)
+    parser.add_argument("--samples", type=int, default=4, help="samples per window at noise x1 (default 4)")
+    parser.add_argument("--out", required=True)
+    args = parser.parse_args(argv)
+    model = trained_model.load_model(args.checkpoint)
+    windows = lafan1.test_windows(args.data)
+    feet, start, length = tuple(skeleton.LAFAN1_FEET), evaluate.START_FRAME, args.length
+    parents = tuple(int(p) for p in windows.skeleton.parents)
+    _, gt = forward_kinematics(np.asarray(windows.rotations, np.float64), np.asarray(windows.positions, np.float64),
+                               parents)
+    ground = metrics.ground_heights(gt, feet)
+    keys = (gt[None, :, start:start + 1], gt[None, :, start + length + 1:start + length + 2])
+
+    def with_keyframes(p):
+        return np.concatenate([np.broadcast_to(keys[0], p[:, :, :1].shape), p,
+                               np.broadcast_to(keys[1], p[:, :, :1].shape)], axis=2)
+
+    methods = {"model noise x0": (evaluate.model_method(model, noise_scale=0.0), 1),
+               "model noise x1": (evaluate.model_method(model), args.samples),
+               "interpolation": (evaluate.interpolation_method, 1)}
+    curves = {}
+    for name, (method, samples) in methods.items():
+        rotations, positions = method(windows, start, length, samples, 0)
+        _, p = forward_kinematics(np.asarray(rotations, np.float64), np.asarray(positions, np.float64), parents)
+        curves[name] = per_frame_slide(with_keyframes(p), ground, feet)
+    curves["ground truth"] = per_frame_slide(gt[None, :, start:start + length + 2], ground, feet)
+
+    print("step    " + "".join(f"{name:>16}" for name in curves))
+    for t in range(length + 1):
+        print(f"{t:2d}->{t + 1:<3d} " + "".join(f"{c[t]:16.2f}" for c in curves.values()))
+    out = pathlib.Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = out / f"foot_slide_L{length}"
+    stem.with_suffix(".json").write_text(json.dumps(
+        {"checkpoint": str(args.checkpoint), "length": length, "windows": int(len(windows.rotations)),
+         "samples_noise1": args.samples, "units": "cm/frame, entry t = frame t to t + 1",
+         "curves": {k: [round(float(x), 4) for x in v] for k, v in curves.items()}}, indent=1) + "\n")
+    import matplotlib  # reason: only for the figure
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    for name, curve in curves.items():
+        ax.plot(np.arange(length + 1) + 0.5, curve, label=name)
+    h, k, _, _ = (int(x) for x in rollout.schedule(model.config, length))
+    ax.axvspan(h - k + 1, h + k, color="grey", alpha=0.15, label=f"stitch overlap (frames {h - k + 1}-{h + k})")
+    ax.set_xlabel("transition frame (0 = start keyframe)")
+    ax.set_ylabel("foot slide (cm/frame)")
+    ax.set_title(f"Foot slide along the transition, L = {length}, {len(windows.rotations)} windows")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(stem.with_suffix(".png"), dpi=120)
+    print(f"wrote {stem}.json and {stem}.png")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
