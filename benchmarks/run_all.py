@@ -1,31 +1,40 @@
-"""All benchmarks in one command: stitchjax vs an eager PyTorch twin, FLOPs and peak fraction, scaling.
+"""All benchmarks in one command: stitchjax vs an eager and a compiled PyTorch twin, FLOPs and peak fraction,
+scaling.
 
     python benchmarks/run_all.py                      # full run (~30+ min on a 2-core CPU)
-    python benchmarks/run_all.py --quick              # fewer repetitions and scale points (see README)
+    python benchmarks/run_all.py --quick              # train + infer, fewer repetitions (< 3 min, see README)
     python benchmarks/run_all.py --quick --json out.json
     python benchmarks/run_all.py --only train,infer   # a subset of: train, infer, scale_batch,
                                                       #   scale_length, data_parallel
+    python benchmarks/run_all.py --only train --train-batch 4 --train-length 6 --train-reps 1   # a smoke test
 
 Measured side by side in one process (jax and torch share the CPU; each timing = warm-up, then several
 repetitions, median reported; jax and torch repetitions are interleaved so load from other processes hits
 both alike):
 
 - train: one full training step (both generators' bidirectional aligned rollout, all losses, backward pass,
-  AdamW on the generators, the discriminator update) of the `lafan1` config, batch 32, transition length
-  48 (= the config's train.max_length: a 50-frame window holds 48 in-betweens + 2 keyframes), windows/s.
+  AdamW on the generators, the discriminator update) of the `lafan1` config (the current default model:
+  posterior q(z | h, next frame), z at every decoder layer, ...), batch 32, transition length 48 (= the
+  config's train.max_length: a 50-frame window holds 48 in-betweens + 2 keyframes), windows/s.
   stitchjax: `train.make_train_step` (jitted, compiled ahead of time). Twin: `benchmarks/torch_twin.py`
-  (eager PyTorch, Python loop over frames, torch.optim.AdamW), same sizes, same batch.
+  (eager PyTorch, Python loop over frames, torch.optim.AdamW), same sizes, same batch, at torch's default
+  threads and at 1 thread (--quick: the faster of the two in a one-call probe). Compiled twin: the same
+  twin with its per-frame generator step through torch.compile (inductor), at the faster thread setting;
+  its first step (compilation + one step) is reported apart from the steady-state throughput.
 - FLOPs per train step: matmul FLOPs of the optimised HLO with loop trip counts (benchmarks/flops.py),
   cross-checked against a hand count of the network's matmuls; XLA's cost_analysis() is also reported
   (it counts a scan body once). peak_flops_fraction = matmul FLOPs per step / median step time /
   THEORETICAL float32 peak (cores x nominal GHz x FLOP/cycle, see flops.py); the measured GEMM peak of
   numpy/XLA on this machine is reported beside it.
-- infer: one transition of 50 generated frames, 64 samples (one vmapped rollout), ms per call.
-- train and infer are also timed with model.matmul_dtype=bfloat16 (bfloat16 matmul operands, float32
-  accumulation), against the twin in float32 and under torch.autocast(bfloat16).
+- infer: one transition of 50 generated frames, 64 samples (one vmapped rollout), ms per call; the twins
+  under torch.inference_mode().
+- bfloat16: train and infer also with model.matmul_dtype=bfloat16 (bfloat16 matmul operands, float32
+  accumulation), against the twin in float32 and under torch.autocast(bfloat16), where the CPU has bfloat16
+  units (/proc/cpuinfo flags amx_bf16 / avx512_bf16, aarch64 bf16; --bf16 on|off overrides); otherwise
+  skipped, and the JSON says why.
 - scale_batch: train windows/s vs batch size; scale_length: vs transition length (window = L + 2 frames of
   synthetic data); data_parallel: train windows/s with 1, 2, 4 forced host CPU devices (subprocesses with
-  XLA_FLAGS=--xla_force_host_platform_device_count=N), same global batch 32.
+  XLA_FLAGS=--xla_force_host_platform_device_count=N), same global batch 32. Not in --quick.
 
 Data: synthetic windows (random smooth motion on the LAFAN1 skeleton with LAFAN1-like bone lengths); a
 step's cost does not depend on the values. Writes a JSON with everything (--json) and prints a summary.
@@ -181,20 +190,57 @@ def synthetic_dataset(config, num_windows: int, num_frames: int, seed: int = 0) 
     }
 
 
-# The model the PyTorch twin mirrors: the lafan1 model as it was before the conditional-VAE fields (no
-# posterior, z into the first decoder layer only, the LSTM state into the decoder, gamma over the
-# transition), so both sides do the same work.
-TWIN_MODEL = ["model.posterior=none", "model.z_every_layer=false", "model.decoder_uses_lstm=true",
-              "model.gamma_schedule=transition"]
-
-
 def bench_config(batch: int = TRAIN_BATCH, length: int = TRAIN_LENGTH, extra=()):
-    """The lafan1 config (the twin's model, TWIN_MODEL) with batch size and window = length + 2 frames."""
+    """The lafan1 config (the current default model, which the twin mirrors) with batch size and window =
+    length + 2 frames."""
     from stitchjax import config as config_lib
 
-    overrides = TWIN_MODEL + [f"train.batch_size={batch}", f"data.window={length + 2}",
-                              f"train.max_length={length}"]
+    overrides = [f"train.batch_size={batch}", f"data.window={length + 2}", f"train.max_length={length}"]
     return config_lib.apply_overrides(config_lib.load_config("lafan1"), overrides + list(extra))
+
+
+# -------------------------------------------------------------------------------------- bfloat16 units
+
+
+BF16_FLAGS = ("amx_bf16", "avx512_bf16")  # x86 /proc/cpuinfo "flags"; aarch64 lists "bf16" under "Features"
+
+
+def bf16_support(cpuinfo: str | None = None) -> tuple[bool, str]:
+    """Whether the CPU has bfloat16 matmul units, and why, from /proc/cpuinfo text (read when None).
+
+    x86: the ``amx_bf16`` or ``avx512_bf16`` flag; aarch64: ``bf16`` in "Features". Without them XLA and
+    torch run bfloat16 matmuls by converting to float32, so bfloat16 rows would only measure conversions.
+    """
+    if cpuinfo is None:
+        try:
+            cpuinfo = pathlib.Path("/proc/cpuinfo").read_text()
+        except OSError as err:
+            return False, f"cannot read /proc/cpuinfo ({err.strerror}): bfloat16 units unknown"
+    flags: set[str] = set()
+    for line in cpuinfo.splitlines():
+        key, sep, value = line.partition(":")
+        if sep and key.strip().lower() in ("flags", "features"):
+            flags.update(value.split())
+    found = [f for f in BF16_FLAGS if f in flags] + (["bf16"] if "bf16" in flags else [])
+    if found:
+        return True, f"CPU flags {', '.join(found)} in /proc/cpuinfo"
+    if not flags:
+        return False, "no CPU flags in /proc/cpuinfo: bfloat16 units unknown"
+    return False, (f"no {', '.join(BF16_FLAGS)} (x86) or bf16 (aarch64) in the /proc/cpuinfo flags: this CPU "
+                   "has no bfloat16 units (bfloat16 matmuls would run as float32 plus conversions)")
+
+
+def bf16_decision(args) -> tuple[bool, str]:
+    """(run the bfloat16 rows, reason): --bf16 on/off, or auto = a GPU backend or bfloat16 CPU units."""
+    if args.bf16 == "on":
+        return True, "--bf16 on"
+    if args.bf16 == "off":
+        return False, "--bf16 off"
+    import jax
+
+    if jax.default_backend() != "cpu":
+        return True, f"jax backend {jax.default_backend()}"
+    return bf16_support()
 
 
 # ----------------------------------------------------------------------------------------- jax side
@@ -333,57 +379,157 @@ def torch_thread_variants(run, one_thread: bool = True) -> dict:
     return {"torch": with_threads(default), **extra}
 
 
+def with_threads(run, threads: int) -> Callable[[], Any]:
+    """``run`` at ``threads`` torch threads (restored afterwards)."""
+    import torch
+
+    def timed():
+        before = torch.get_num_threads()
+        torch.set_num_threads(threads)
+        try:
+            return run()
+        finally:
+            torch.set_num_threads(before)
+    return timed
+
+
+def faster_threads(probe) -> tuple[int, dict]:
+    """The faster torch thread setting, torch's default or 1, from one timed call of ``probe`` (a short
+    version of the work, already warmed up) at each: (threads, {threads: seconds}). On a CPU shared with
+    other processes eager torch's OpenMP threads can be 20x slower than 1 thread; on an idle one faster."""
+    import torch
+
+    default = torch.get_num_threads()
+    seconds = {}
+    for threads in dict.fromkeys((1, default)):
+        start = time.perf_counter()
+        with_threads(probe, threads)()
+        seconds[threads] = time.perf_counter() - start
+    return min(seconds, key=seconds.get), seconds
+
+
+PROBE_LENGTH = 8  # transition length of the thread probe's train step / inference call
+
+
+def thread_key(threads: int, default: int) -> str:
+    return "torch" if threads == default else f"torch_{threads}_thread"
+
+
+COMPILED_WHAT = ("torch.compile (inductor, default mode) of the twin's per-frame generator step "
+                 "(Twin._frame_step: state/offset features, phase network, generator, next frame); the Python "
+                 "loop over frames, stitching, FK, losses and AdamW stay eager")
+
+
+def compiled_twin(config, params, phase_params, threads: int):
+    """A second twin with the same weights, its per-frame step torch.compile'd (compiled at its first
+    calls, at ``threads`` torch threads: inductor's CPU kernels keep the thread count they were built with)."""
+    import torch
+    import torch_twin
+
+    torch._dynamo.config.recompile_limit = max(torch._dynamo.config.recompile_limit, 64)
+    twin = torch_twin.Twin(config)
+    twin.load_flax(params, phase_params)
+    twin.compile()
+    return twin
+
+
 def best_torch_s(timings: dict, any_precision: bool = False) -> float:
-    """The fastest median over the float32 torch variants timed (with any_precision: bfloat16 too)."""
+    """The fastest median over the eager float32 torch variants timed (with any_precision: bfloat16 too)."""
     return min(t["median_s"] for name, t in timings.items()
-               if name.startswith("torch") and (any_precision or "bfloat16" not in name))
+               if name.startswith("torch") and "compiled" not in name and (any_precision or "bfloat16" not in name))
 
 
-def torch_bfloat16(run) -> Callable[[], Any]:
-    """``run`` under ``torch.autocast("cpu", dtype=torch.bfloat16)`` at torch's default threads: the
-    twin's counterpart of ``model.matmul_dtype=bfloat16``."""
+def torch_bfloat16(run, threads: int) -> Callable[[], Any]:
+    """``run`` under ``torch.autocast("cpu", dtype=torch.bfloat16)`` at ``threads`` torch threads (the faster
+    float32 setting): the twin's counterpart of ``model.matmul_dtype=bfloat16``."""
     import torch
 
     def timed():
         with torch.autocast("cpu", dtype=torch.bfloat16):
             run()
-    return timed
+    return with_threads(timed, threads)
 
 
 def section_train(args, results: dict) -> dict:
     import torch
     import torch_twin
 
-    config = bench_config(TRAIN_BATCH, TRAIN_LENGTH)
-    log(f"train: compiling stitchjax step (batch {TRAIN_BATCH}, length {TRAIN_LENGTH}) ...")
-    jax_train = JaxTrain(config, TRAIN_LENGTH)
-    log(f"train: compiled in {jax_train.compile_s:.1f} s; the same with model.matmul_dtype=bfloat16 ...")
-    jax_train_bf16 = JaxTrain(bench_config(TRAIN_BATCH, TRAIN_LENGTH, [BFLOAT16]), TRAIN_LENGTH)
+    batch_size, length = args.train_batch, args.train_length
+    run_bf16 = results["bf16"]["run"]
+    config = bench_config(batch_size, length)
+    log(f"train: compiling stitchjax step (batch {batch_size}, length {length}) ...")
+    jax_train = JaxTrain(config, length)
+    log(f"train: compiled in {jax_train.compile_s:.1f} s")
+    jax_train_bf16 = None
+    if run_bf16:
+        log("train: the same with model.matmul_dtype=bfloat16 ...")
+        jax_train_bf16 = JaxTrain(bench_config(batch_size, length, [BFLOAT16]), length)
     default_threads = torch.get_num_threads()
+    params, phase_params = jax_train.state.params, jax_train.state.phase_params  # before any step donates them
     twin = torch_twin.Twin(config)
-    twin.load_flax(jax_train.state.params, jax_train.state.phase_params)
-    batch = torch_twin.batch_to_torch(jax_train.host_data, np.arange(TRAIN_BATCH))
+    twin.load_flax(params, phase_params)
+    batch = torch_twin.batch_to_torch(jax_train.host_data, np.arange(batch_size))
     rng = np.random.default_rng(0)
-    # --quick times the twin at torch's default threads only (1 thread is slower on an idle machine).
-    # Two warm-up calls: a compiled jax step runs ~40% slower the first time after compilation.
-    twin_step = lambda: twin.train_step(batch, TRAIN_LENGTH, rng=rng)  # noqa: E731
-    torch_fns = torch_thread_variants(twin_step, not args.quick)
-    timings = interleaved({"jax": jax_train.run, **torch_fns, "jax_bfloat16": jax_train_bf16.run,
-                           "torch_bfloat16_autocast": torch_bfloat16(twin_step)},
-                          warmup=2, reps=3 if args.quick else 8)
+    steps = max(torch_twin.schedule(config, length)[2:])
+    eps0 = torch.from_numpy(rng.standard_normal((batch_size, steps, 2, config.model.latent_dim), dtype=np.float32))
+    start = time.perf_counter()
+    eager_first = with_threads(lambda: twin.train_step(batch, length, eps=eps0), 1)()  # warm-up
+    eager_first_s = time.perf_counter() - start
+    twin_step = lambda: twin.train_step(batch, length, rng=rng)  # noqa: E731
+    probe_length = min(length, PROBE_LENGTH)
+    threads, probe = faster_threads(lambda: twin.train_step(batch, probe_length, rng=rng))
+    results["torch_threads"] = threads
+    probed = ", ".join(f"{n} thread(s) {t:.2f} s" for n, t in probe.items())
+    log(f"train: eager twin first step (1 thread) {eager_first_s:.2f} s; a step at L = {probe_length} takes {probed}: "
+        f"the twins run at {threads} thread(s)")
+    twin_c = compiled_twin(config, params, phase_params, threads)
+    start = time.perf_counter()
+    compiled_first = with_threads(lambda: twin_c.train_step(batch, length, eps=eps0), threads)()
+    compiled_first_s = time.perf_counter() - start
+    loss_diff = abs(compiled_first["loss"] - eager_first["loss"]) / abs(eager_first["loss"])
+    log(f"train: compiled twin = {COMPILED_WHAT}; first step (compilation + one step) {compiled_first_s:.1f} s; "
+        f"its loss vs the eager twin's on the same weights and noise: relative difference {loss_diff:.1e}")
+    rng_c = np.random.default_rng(1)
+    compiled_step = with_threads(lambda: twin_c.train_step(batch, length, rng=rng_c), threads)
+    if args.torch_threads == "faster":  # the thread setting the probe chose
+        torch_fns = {thread_key(threads, default_threads): with_threads(twin_step, threads)}
+    else:
+        torch_fns = torch_thread_variants(twin_step)
+    fns = {"jax": jax_train.run, **torch_fns, "torch_compiled": compiled_step}
+    if run_bf16:
+        fns["jax_bfloat16"] = jax_train_bf16.run
+        if not args.quick:  # autocast gains the eager twin nothing (README); --quick compares to float32
+            fns["torch_bfloat16_autocast"] = torch_bfloat16(twin_step, threads)
+    # Two warm-up calls for jax (a compiled step runs ~40% slower the first time after compilation); the
+    # twins have had theirs above.
+    jax_train.run()
+    if jax_train_bf16 is not None:
+        jax_train_bf16.run()
+    timings = interleaved(fns, warmup=1, reps=args.train_reps)
     jax_s = timings["jax"]["median_s"]
     torch_s = best_torch_s(timings)
-    bf16_s = timings["jax_bfloat16"]["median_s"]
+    compiled_s = timings["torch_compiled"]["median_s"]
     flop = jax_train.flops()
-    hand = hand_count(config, TRAIN_BATCH, TRAIN_LENGTH)
+    hand = hand_count(config, batch_size, length)
     peak = results["machine"]["peak"]
     fraction = flop["hlo_matmul_flops"] / jax_s / peak["theoretical"]["flops"]
     out = {
-        "batch": TRAIN_BATCH, "transition_length": TRAIN_LENGTH, "window": TRAIN_LENGTH + 2,
+        "batch": batch_size, "transition_length": length, "window": length + 2, "reps": args.train_reps,
+        "model": "lafan1 defaults (posterior next_frame, z at every decoder layer, no LSTM state in the decoder, "
+                 "gamma per direction, contact inputs without gradient)",
         "jax_compile_s": jax_train.compile_s, "timings": timings,
-        "torch_note": "torch_train_windows_per_s uses the faster of the torch thread settings timed",
-        "train_windows_per_s": TRAIN_BATCH / jax_s, "torch_train_windows_per_s": TRAIN_BATCH / torch_s,
+        "torch_note": "torch_train_windows_per_s uses the faster of the eager torch thread settings timed",
+        "train_windows_per_s": batch_size / jax_s, "torch_train_windows_per_s": batch_size / torch_s,
         "train_speedup_vs_torch": torch_s / jax_s,
+        "torch_eager_first_step_s": eager_first_s, "torch_thread_probe_s": probe,
+        "torch_threads_timed": args.torch_threads,
+        "torch_compiled": {"what": COMPILED_WHAT, "threads": threads,
+                           "first_step_s": compiled_first_s,
+                           "first_step_note": "compilation (dynamo + inductor, cold or warm inductor cache) plus "
+                                              "one train step",
+                           "first_step_loss_rel_diff_vs_eager": loss_diff},
+        "torch_compiled_train_windows_per_s": batch_size / compiled_s,
+        "train_speedup_vs_torch_compiled": compiled_s / jax_s,
         "flops": {**flop, "hand_count_matmul_flops": hand["total"], "hand_count_detail": hand,
                   "hlo_over_hand": flop["hlo_matmul_flops"] / hand["total"]},
         "achieved_matmul_flops_per_s": flop["hlo_matmul_flops"] / jax_s,
@@ -392,46 +538,96 @@ def section_train(args, results: dict) -> dict:
         "torch_achieved_matmul_flops_per_s": hand["total"] / torch_s,
         "torch_threads_default": default_threads,
         "jax_loss": float(jax_train.metrics["loss"]),
-        "bfloat16_note": "model.matmul_dtype=bfloat16 (bfloat16 matmul operands, float32 accumulation) vs the "
-                         "fastest twin in float32 or under torch.autocast(bfloat16)",
-        "jax_bfloat16_compile_s": jax_train_bf16.compile_s,
-        "train_bf16_windows_per_s": TRAIN_BATCH / bf16_s,
-        "torch_bf16_train_windows_per_s": TRAIN_BATCH / timings["torch_bfloat16_autocast"]["median_s"],
-        "train_bf16_speedup_vs_torch": best_torch_s(timings, any_precision=True) / bf16_s,
     }
+    if run_bf16:
+        bf16_s = timings["jax_bfloat16"]["median_s"]
+        out.update({
+            "bfloat16_note": "model.matmul_dtype=bfloat16 (bfloat16 matmul operands, float32 accumulation) vs the "
+                             "fastest eager twin in float32 or under torch.autocast(bfloat16) (not timed in "
+                             "--quick)",
+            "jax_bfloat16_compile_s": jax_train_bf16.compile_s,
+            "train_bf16_windows_per_s": batch_size / bf16_s,
+            "torch_bf16_train_windows_per_s": (batch_size / timings["torch_bfloat16_autocast"]["median_s"]
+                                               if "torch_bfloat16_autocast" in timings else "not timed in --quick"),
+            "train_bf16_speedup_vs_torch": best_torch_s(timings, any_precision=True) / bf16_s,
+        })
+    else:
+        out["bfloat16_skipped"] = results["bf16"]["reason"]
+    log(f"train: stitchjax {batch_size / jax_s:.1f} windows/s, eager twin {batch_size / torch_s:.1f}, compiled twin "
+        f"{batch_size / compiled_s:.1f} (batch {batch_size}, L = {length}, medians of {args.train_reps})")
     return out
 
 
 def section_infer(args, results: dict) -> dict:
+    import torch
     import torch_twin
 
-    config = bench_config(TRAIN_BATCH, INFER_LENGTH)
-    data = synthetic_dataset(config, 2, INFER_LENGTH + 2, seed=1)
-    log(f"infer: compiling stitchjax inference ({INFER_SAMPLES} samples x {INFER_LENGTH} frames) ...")
-    jax_infer = JaxInfer(config, INFER_LENGTH, INFER_SAMPLES, data)
-    jax_infer_bf16 = JaxInfer(bench_config(TRAIN_BATCH, INFER_LENGTH, [BFLOAT16]), INFER_LENGTH, INFER_SAMPLES, data)
-    import torch
-
+    samples, length = args.infer_samples, args.infer_length
+    run_bf16 = results["bf16"]["run"]
+    config = bench_config(TRAIN_BATCH, length)
+    data = synthetic_dataset(config, 2, length + 2, seed=1)
+    log(f"infer: compiling stitchjax inference ({samples} samples x {length} frames) ...")
+    jax_infer = JaxInfer(config, length, samples, data)
+    jax_infer_bf16 = (JaxInfer(bench_config(TRAIN_BATCH, length, [BFLOAT16]), length, samples, data)
+                      if run_bf16 else None)
     twin = torch_twin.Twin(config)
     twin.load_flax(jax_infer.params, jax_infer.phase_params)
     default_threads = torch.get_num_threads()
-    # --quick times the twin at torch's default threads only (1 thread is slower on an idle machine)
-    torch_fn = twin.make_inference(data, INFER_LENGTH, INFER_SAMPLES)
-    fns = {"jax": jax_infer.run, **torch_thread_variants(torch_fn, one_thread=not args.quick),
-           "jax_bfloat16": jax_infer_bf16.run, "torch_bfloat16_autocast": torch_bfloat16(torch_fn)}
-    timings = interleaved(fns, warmup=2, reps=5 if args.quick else 15)
+    torch_fn = twin.make_inference(data, length, samples)
+    start = time.perf_counter()
+    eager_first = with_threads(torch_fn, 1)()  # warm-up
+    eager_first_s = time.perf_counter() - start
+    if "torch_threads" in results:  # the train section's probe
+        threads, probe = results["torch_threads"], "train section's"
+    else:
+        threads, probe = faster_threads(twin.make_inference(data, min(length, PROBE_LENGTH), samples))
+        results["torch_threads"] = threads
+    twin_c = compiled_twin(config, jax_infer.params, jax_infer.phase_params, threads)
+    compiled_fn = with_threads(twin_c.make_inference(data, length, samples), threads)
+    start = time.perf_counter()
+    compiled_first = compiled_fn()  # the same seed: the same noise as eager_first
+    compiled_first_s = time.perf_counter() - start
+    diff_cm = float((compiled_first - eager_first).abs().max())
+    log(f"infer: eager twin first call (1 thread) {eager_first_s:.2f} s, compiled twin ({threads} thread(s)) first "
+        f"call (compilation + one call) {compiled_first_s:.1f} s; max difference of their joint positions on the same "
+        f"noise {diff_cm:.1e} cm")
+    if args.torch_threads == "faster":
+        torch_fns = {thread_key(threads, default_threads): with_threads(torch_fn, threads)}
+    else:
+        torch_fns = torch_thread_variants(torch_fn)
+    fns = {"jax": jax_infer.run, **torch_fns, "torch_compiled": compiled_fn}
+    if run_bf16:
+        fns["jax_bfloat16"] = jax_infer_bf16.run
+        if not args.quick:
+            fns["torch_bfloat16_autocast"] = torch_bfloat16(torch_fn, threads)
+    timings = interleaved(fns, warmup=1 if args.quick else 2, reps=args.infer_reps)
     torch_s = best_torch_s(timings)
-    bf16_s = timings["jax_bfloat16"]["median_s"]
-    return {"samples": INFER_SAMPLES, "transition_length": INFER_LENGTH, "api": jax_infer.api,
-            "jax_first_call_s": jax_infer.compile_s, "timings": timings,
-            "torch_threads_default": default_threads,
-            "torch_note": "torch_infer_64x50_ms uses the faster of the torch thread settings timed",
-            "infer_64x50_ms": 1e3 * timings["jax"]["median_s"],
-            "torch_infer_64x50_ms": 1e3 * torch_s,
-            "infer_speedup_vs_torch": torch_s / timings["jax"]["median_s"],
-            "infer_64x50_bf16_ms": 1e3 * bf16_s,
-            "torch_bf16_infer_64x50_ms": 1e3 * timings["torch_bfloat16_autocast"]["median_s"],
-            "infer_bf16_speedup_vs_torch": best_torch_s(timings, any_precision=True) / bf16_s}
+    jax_s = timings["jax"]["median_s"]
+    compiled_s = timings["torch_compiled"]["median_s"]
+    out = {"samples": samples, "transition_length": length, "api": jax_infer.api, "reps": args.infer_reps,
+           "jax_first_call_s": jax_infer.compile_s, "timings": timings,
+           "torch_threads_default": default_threads, "torch_eager_first_call_s": eager_first_s,
+           "torch_thread_probe_s": probe, "torch_threads_timed": args.torch_threads,
+           "torch_note": "torch_infer_64x50_ms uses the faster of the eager torch thread settings timed",
+           "infer_64x50_ms": 1e3 * jax_s,
+           "torch_infer_64x50_ms": 1e3 * torch_s,
+           "infer_speedup_vs_torch": torch_s / jax_s,
+           "torch_compiled": {"what": COMPILED_WHAT, "threads": threads, "first_call_s": compiled_first_s,
+                              "first_call_note": "compilation (dynamo + inductor) plus one call",
+                              "max_abs_diff_vs_eager_cm": diff_cm},
+           "torch_compiled_infer_64x50_ms": 1e3 * compiled_s,
+           "infer_speedup_vs_torch_compiled": compiled_s / jax_s}
+    if run_bf16:
+        bf16_s = timings["jax_bfloat16"]["median_s"]
+        out.update({"infer_64x50_bf16_ms": 1e3 * bf16_s,
+                    "torch_bf16_infer_64x50_ms": (1e3 * timings["torch_bfloat16_autocast"]["median_s"]
+                                                  if "torch_bfloat16_autocast" in timings else "not timed in --quick"),
+                    "infer_bf16_speedup_vs_torch": best_torch_s(timings, any_precision=True) / bf16_s})
+    else:
+        out["bfloat16_skipped"] = results["bf16"]["reason"]
+    log(f"infer: stitchjax {1e3 * jax_s:.0f} ms, eager twin {1e3 * torch_s:.0f} ms, compiled twin "
+        f"{1e3 * compiled_s:.0f} ms ({samples} samples x {length} frames, medians of {args.infer_reps})")
+    return out
 
 
 def train_point(args, batch: int, length: int, with_torch: bool):
@@ -519,6 +715,7 @@ def section_data_parallel(args, results: dict) -> list:
     return rows
 
 
+QUICK_SECTIONS = ["train", "infer"]
 SECTIONS = {"train": section_train, "infer": section_infer, "scale_batch": section_scale_batch,
             "scale_length": section_scale_length, "data_parallel": section_data_parallel}
 
@@ -531,13 +728,20 @@ def summary(results: dict) -> dict:
         "train_windows_per_s": train_res.get("train_windows_per_s"),
         "torch_train_windows_per_s": train_res.get("torch_train_windows_per_s"),
         "train_speedup_vs_torch": train_res.get("train_speedup_vs_torch"),
+        "torch_compiled_train_windows_per_s": train_res.get("torch_compiled_train_windows_per_s"),
+        "train_speedup_vs_torch_compiled": train_res.get("train_speedup_vs_torch_compiled"),
+        "torch_compiled_train_first_step_s": train_res.get("torch_compiled", {}).get("first_step_s"),
         "flops_per_train_step": train_res.get("flops", {}).get("hlo_matmul_flops"),
         "peak_flops_fraction": train_res.get("peak_flops_fraction"),
         "infer_64x50_ms": infer_res.get("infer_64x50_ms"),
         "torch_infer_64x50_ms": infer_res.get("torch_infer_64x50_ms"),
+        "torch_compiled_infer_64x50_ms": infer_res.get("torch_compiled_infer_64x50_ms"),
+        "infer_speedup_vs_torch_compiled": infer_res.get("infer_speedup_vs_torch_compiled"),
+        "torch_compiled_infer_first_call_s": infer_res.get("torch_compiled", {}).get("first_call_s"),
         "train_bf16_windows_per_s": train_res.get("train_bf16_windows_per_s"),
         "train_bf16_speedup_vs_torch": train_res.get("train_bf16_speedup_vs_torch"),
         "infer_64x50_bf16_ms": infer_res.get("infer_64x50_bf16_ms"),
+        "bf16_rows": results.get("bf16"),
     }
     met = {}
     if keys["train_speedup_vs_torch"] is not None:
@@ -554,9 +758,21 @@ def summary(results: dict) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="fewer repetitions and scale points (< 3 min)")
+    parser.add_argument("--quick", action="store_true",
+                        help="sections train and infer only, fewer repetitions (< 3 min on 2 cores)")
     parser.add_argument("--json", default=None, help="write all results to this JSON file")
     parser.add_argument("--only", default=None, help="comma-separated sections: " + ",".join(SECTIONS))
+    parser.add_argument("--bf16", choices=("auto", "on", "off"), default="auto",
+                        help="bfloat16 rows: auto = where the CPU has bfloat16 units (or on a GPU)")
+    parser.add_argument("--train-batch", type=int, default=TRAIN_BATCH, help="train section batch size")
+    parser.add_argument("--train-length", type=int, default=TRAIN_LENGTH, help="train section transition length")
+    parser.add_argument("--infer-samples", type=int, default=INFER_SAMPLES, help="infer section samples")
+    parser.add_argument("--infer-length", type=int, default=INFER_LENGTH, help="infer section transition length")
+    parser.add_argument("--train-reps", type=int, default=None, help="train repetitions (default 8, --quick 3)")
+    parser.add_argument("--infer-reps", type=int, default=None, help="infer repetitions (default 15, --quick 5)")
+    parser.add_argument("--torch-threads", choices=("both", "faster"), default=None,
+                        help="eager twin timed at torch's default threads and at 1 (both; the default) or only at "
+                             "the faster of the two in a one-call probe (faster; the --quick default)")
     parser.add_argument("--worker-devices", type=int, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--worker-reps", type=int, default=3, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -565,7 +781,13 @@ def main(argv=None) -> int:
         return 0
 
     wall = time.perf_counter()
-    sections = list(SECTIONS) if args.only is None else [s.strip() for s in args.only.split(",") if s.strip()]
+    args.train_reps = args.train_reps or (3 if args.quick else 8)
+    args.infer_reps = args.infer_reps or (5 if args.quick else 15)
+    args.torch_threads = args.torch_threads or ("faster" if args.quick else "both")
+    if args.only is not None:
+        sections = [s.strip() for s in args.only.split(",") if s.strip()]
+    else:
+        sections = QUICK_SECTIONS if args.quick else list(SECTIONS)
     unknown = [s for s in sections if s not in SECTIONS]
     if unknown:
         parser.error(f"unknown section(s) {unknown}; choose from {', '.join(SECTIONS)}")
@@ -584,6 +806,13 @@ def main(argv=None) -> int:
     }
     log(f"  theoretical {results['machine']['peak']['theoretical']['flops'] / 1e9:.1f} GFLOP/s, measured GEMM "
         f"{results['machine']['peak']['measured']['best'] / 1e9:.1f} GFLOP/s")
+    run_bf16, reason = bf16_decision(args)
+    results["bf16"] = {"run": run_bf16, "reason": reason}
+    log(f"bfloat16 rows: {'run' if run_bf16 else 'skipped'} ({reason})")
+    log(f"sections: {', '.join(sections)}; train batch {args.train_batch}, L = {args.train_length}, "
+        f"{args.train_reps} repetitions; infer {args.infer_samples} samples x {args.infer_length} frames, "
+        f"{args.infer_reps} repetitions; eager twin threads: {args.torch_threads}"
+        + ("; --quick leaves out " + ", ".join(s for s in SECTIONS if s not in sections) if args.quick else ""))
     for name in sections:
         start = time.perf_counter()
         try:

@@ -2,6 +2,7 @@
 
     python benchmarks/step_parts.py                              # lafan1, batch 32, length 48, both precisions
     python benchmarks/step_parts.py --batch 128 --dtypes float32
+    python benchmarks/step_parts.py --dtypes float32 --scan-remat none,dots --profile /tmp/trace   # train.scan_remat
 
 Parts (each one jitted program, compiled ahead of time, timed after two warm-up calls; medians):
 
@@ -35,6 +36,9 @@ import flops as flops_lib
 
 PROFILE_CALLS = 3
 _BOOKKEEPING = re.compile(r"^(end: |ThunkExecutor|ThreadpoolListener|SlinkyThreadPool)")
+# operation kinds that only move data: copies (of parameters, gradients, loop buffers) and the stacking of
+# per-step values into the scan's saved buffers
+_DATA_MOVEMENT = re.compile(r"copy|dynamic-update-slice|dynamic_update_slice|broadcast")
 
 
 def thread_time_by_op(trace_dir: pathlib.Path, calls: int = PROFILE_CALLS) -> tuple[dict, float, int]:
@@ -74,14 +78,18 @@ def profile(compiled, args, trace_dir: pathlib.Path, wall_s: float, top: int = 1
           f"per call ({100 * busy_ms / capacity:.0f} %); top operations by thread time:")
     for kind, (ms, n) in list(ops.items())[:top]:
         print(f"    {ms:8.1f} ms  {n:7.0f} x  {kind}")
+    moving = {kind: ms for kind, (ms, _) in ops.items() if _DATA_MOVEMENT.search(kind)}
+    print(f"  copies and stacking (kinds matching {_DATA_MOVEMENT.pattern!r}): {sum(moving.values()):.1f} thread-ms "
+          f"per call over {len(moving)} kinds")
 
 
-def parts(batch: int, length: int, dtype: str, reps: int, profile_dir: pathlib.Path | None = None) -> list:
+def parts(batch: int, length: int, dtype: str, reps: int, profile_dir: pathlib.Path | None = None,
+          scan_remat: str = "none") -> list:
     import jax
 
     from stitchjax import losses, rollout
 
-    config = run_all.bench_config(batch, length, [f"model.matmul_dtype={dtype}"])
+    config = run_all.bench_config(batch, length, [f"model.matmul_dtype={dtype}", f"train.scan_remat={scan_remat}"])
     whole = run_all.JaxTrain(config, length)
     state = whole.state
     sample = whole.sample(whole.dataset, state.key, state.step)
@@ -102,8 +110,8 @@ def parts(batch: int, length: int, dtype: str, reps: int, profile_dir: pathlib.P
                                  warmup=2, reps=reps)["median_s"]
         rows.append((name, seconds, flops_lib.hlo_matmul_flops(compiled)["matmul_flops"]))
     if profile_dir is not None:  # the generator loss + grad compiled last
-        print(f"{dtype}: profiling the generator loss + grad ...")
-        profile(compiled, (generators, state.phase_params, sample), profile_dir / dtype, seconds)
+        print(f"{dtype}, scan_remat={scan_remat}: profiling the generator loss + grad ...")
+        profile(compiled, (generators, state.phase_params, sample), profile_dir / f"{dtype}_{scan_remat}", seconds)
     seconds = run_all.timeit(whole.run, warmup=2, reps=reps)["median_s"]
     rows.append(("train step", seconds, flops_lib.hlo_matmul_flops(whole.compiled)["matmul_flops"]))
     return rows
@@ -115,17 +123,23 @@ def main(argv=None) -> int:
     parser.add_argument("--length", type=int, default=run_all.TRAIN_LENGTH, help="transition length (default 48)")
     parser.add_argument("--dtypes", default="float32,bfloat16", help="model.matmul_dtype values to time")
     parser.add_argument("--reps", type=int, default=5, help="timed calls per part (default 5)")
+    parser.add_argument("--scan-remat", default="none",
+                        help="train.scan_remat values to time, comma separated (none, dots, nothing)")
     parser.add_argument("--profile", type=pathlib.Path, default=None, metavar="DIR",
-                        help="also trace the generator loss + grad into DIR/<dtype> and print its top operations")
+                        help="also trace the generator loss + grad into DIR/<dtype>_<scan_remat> and print its top "
+                             "operations")
     args = parser.parse_args(argv)
     peak = flops_lib.theoretical_peak_flops()["flops"]
     print(f"batch {args.batch}, transition length {args.length}; theoretical float32 peak {peak / 1e9:.1f} GFLOP/s")
     rows = []
     for dtype in [d.strip() for d in args.dtypes.split(",") if d.strip()]:
-        rows += [(dtype, *row) for row in parts(args.batch, args.length, dtype, args.reps, args.profile)]
-    print(f"{'matmul dtype':<13} {'part':<22} {'ms':>8} {'GFLOP':>8} {'GFLOP/s':>8} {'% fp32 peak':>11}")
-    for dtype, name, seconds, flop in rows:
-        print(f"{dtype:<13} {name:<22} {1e3 * seconds:8.0f} {flop / 1e9:8.1f} {flop / seconds / 1e9:8.1f} "
+        for remat in [r.strip() for r in args.scan_remat.split(",") if r.strip()]:
+            rows += [(dtype, remat, *row) for row in parts(args.batch, args.length, dtype, args.reps, args.profile,
+                                                           remat)]
+    print(f"{'matmul dtype':<13} {'scan_remat':<10} {'part':<22} {'ms':>8} {'GFLOP':>8} {'GFLOP/s':>8} "
+          f"{'% fp32 peak':>11}")
+    for dtype, remat, name, seconds, flop in rows:
+        print(f"{dtype:<13} {remat:<10} {name:<22} {1e3 * seconds:8.0f} {flop / 1e9:8.1f} {flop / seconds / 1e9:8.1f} "
               f"{100 * flop / seconds / peak:10.1f}%")
     return 0
 

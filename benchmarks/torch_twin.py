@@ -1,12 +1,17 @@
 """An eager PyTorch twin of the stitchjax model and train step, written the way a PyTorch user would.
 
 Same networks and layer sizes as ``stitchjax.networks`` (S-CVAE encoders, LSTM cell, latent heads,
-latent interpolation, mixture-of-experts decoder with a gating MLP on the phase features — or a plain MLP
-decoder — the phase network, the two LSGAN discriminators), the same bidirectional aligned rollout with
-stitching as ``stitchjax.rollout`` (a Python loop over frames, batched over windows), the same losses as
-``stitchjax.losses``, and ``torch.optim.AdamW`` with the config's settings for the generators and the
+latent interpolation prior, the recognition network q(z | LSTM state, next frame), mixture-of-experts
+decoder with a gating MLP on the phase features, or a plain MLP decoder, z fed to every decoder layer,
+the phase network, the two LSGAN discriminators), the same bidirectional aligned rollout with stitching as
+``stitchjax.rollout`` (a Python loop over frames, batched over windows), the same losses as
+``stitchjax.losses`` (state, KL(q || p) with free bits and warm-up or the prior's KL, FK, stitching,
+LSGAN, foot skate), and ``torch.optim.AdamW`` with the config's settings for the generators and the
 discriminators. It exists to measure stitchjax against (benchmarks/run_all.py); it is not part of the
 package, and PyTorch is only an optional extra (``pip install -e '.[bench]'``).
+
+Config fields it does not mirror raise :class:`UnsupportedConfig` when the twin is built
+(:func:`check_supported`), instead of computing something else.
 
 Differences that are natural in eager code and change no result: the loop runs only the steps the given
 transition length needs (stitchjax scans a static maximum and masks), and losses/discriminators look at
@@ -14,16 +19,18 @@ the L + 2 frames of the transition only (stitchjax masks the frames past them).
 
     twin = Twin(config)                       # a stitchjax Config
     twin.load_flax(params, phase_params)      # copy stitchjax parameters in
-    loss, terms = twin.generator_loss(batch, length, eps)   # eps: (B, n, 2, latent) pre-drawn noise
+    loss, terms, fake = twin.generator_loss(batch, length, eps)   # eps: (B, n, 2, latent) pre-drawn noise
     twin.train_step(batch, length)            # one full update (generators + discriminators)
+    twin.compile()                            # torch.compile of the per-frame generator step
 
-``jax_noise(key, batch_size, config, max_length)`` draws the noise stitchjax's rollout uses for a key, so both
-implementations can be fed the same samples (``check_equal_loss`` does exactly that).
+``generator_noise(key, batch_size, config, max_length)`` draws the noise stitchjax's generator loss uses for
+a key, so both implementations can be fed the same samples (``check_equal_loss`` does exactly that).
 """
 from __future__ import annotations
 
 import functools
 import math
+import time
 from typing import Any
 
 import numpy as np
@@ -31,27 +38,54 @@ import torch
 from torch import nn
 import torch.nn.functional as Fn
 
-__all__ = ["Twin", "Generator", "Discriminator", "PhaseNet", "batch_to_torch", "jax_noise", "check_equal_loss",
-           "matmul_flops", "num_steps"]
+__all__ = ["Twin", "Generator", "Posterior", "Discriminator", "PhaseNet", "UnsupportedConfig", "check_supported",
+           "batch_to_torch", "jax_noise", "generator_noise", "check_equal_loss", "check_equal_gradients",
+           "matmul_flops", "num_steps", "schedule", "interpolation_weight", "kl_warmup"]
 
-_ACTIVATIONS = {"elu": nn.ELU, "relu": nn.ReLU, "gelu": nn.GELU, "silu": nn.SiLU, "tanh": nn.Tanh,
-                "leaky_relu": lambda: nn.LeakyReLU(0.2)}
+_ACTIVATIONS = {"elu": nn.ELU, "relu": nn.ReLU, "gelu": lambda: nn.GELU(approximate="tanh"),  # flax: tanh form
+                "silu": nn.SiLU, "tanh": nn.Tanh, "leaky_relu": lambda: nn.LeakyReLU(0.2)}
 
 
-def _gelu_exact_check(name: str):
-    if name == "gelu":  # flax nn.gelu is the tanh approximation by default
-        return lambda: nn.GELU(approximate="tanh")
-    return _ACTIVATIONS[name]
+class UnsupportedConfig(ValueError):
+    """The config asks for something the twin does not compute; the message names the field."""
+
+
+def check_supported(config) -> None:
+    """Raise :class:`UnsupportedConfig` for config values the twin does not mirror."""
+    m, lc, tc = config.model, config.loss, config.train
+    allowed = {
+        "model.posterior": (m.posterior, ("next_frame", "none")),
+        "model.gamma_schedule": (m.gamma_schedule, ("direction", "transition")),
+        "model.variance_blend": (m.variance_blend, ("std", "var")),
+        "model.activation": (m.activation, tuple(_ACTIVATIONS)),
+        "model.disc_features": (m.disc_features, ("positions+velocity",)),
+        "loss.reduction": (lc.reduction, ("sum", "mean")),
+        "model.matmul_dtype": (m.matmul_dtype, ("float32",)),
+        "loss.prior_rollout": (bool(lc.prior_rollout and m.posterior != "none"), (False,)),
+        "loss.prior_sample_fraction": (lc.prior_sample_fraction if m.posterior != "none" else 0.0, (0.0,)),
+        "train.lr_decay_to": (tc.lr_decay_to, (1.0,)),
+    }
+    hints = {"model.matmul_dtype": " (the twin runs float32; time it under torch.autocast for bfloat16)",
+             "loss.prior_rollout": " (the second rollout with z from the prior is not in the twin)",
+             "loss.prior_sample_fraction": " (every window's z comes from the posterior in the twin)",
+             "train.lr_decay_to": " (the twin keeps the learning rate constant)"}
+    for field, (value, ok) in allowed.items():
+        if value not in ok:
+            raise UnsupportedConfig(f"the PyTorch twin does not support {field}={value!r}; it supports "
+                                    f"{', '.join(map(repr, ok))}{hints.get(field, '')}")
+
+
+def _make_activation(name: str) -> nn.Module:
+    return _ACTIVATIONS[name]()
 
 
 def mlp(sizes, activation: str, activate_last: bool = True) -> nn.Sequential:
     """Linear layers in_dim -> sizes[1] -> ... with the activation after each (or all but the last)."""
-    make = _gelu_exact_check(activation)
     layers = []
     for i in range(len(sizes) - 1):
         layers.append(nn.Linear(sizes[i], sizes[i + 1]))
         if activate_last or i < len(sizes) - 2:
-            layers.append(make())
+            layers.append(_make_activation(activation))
     return nn.Sequential(*layers)
 
 
@@ -66,6 +100,21 @@ class MoELayer(nn.Module):
     def forward(self, x, coefficients):
         outputs = torch.einsum("bi,eio->beo", x, self.weight) + self.bias
         return torch.einsum("be,beo->bo", coefficients, outputs)
+
+
+class Posterior(nn.Module):
+    """q(z | h, next frame): [h, next_state, next_state - state] -> hidden layer -> (mu_q, logvar_q)."""
+
+    def __init__(self, lstm_size: int, state: int, width: int, latent: int, activation: str):
+        super().__init__()
+        self.latent = latent
+        self.hidden = nn.Linear(lstm_size + 2 * state, width)
+        self.act = _make_activation(activation)
+        self.head = nn.Linear(width, 2 * latent)
+
+    def forward(self, h, state, next_state):
+        out = self.head(self.act(self.hidden(torch.cat([h, next_state, next_state - state], -1))))
+        return out[:, :self.latent], out[:, self.latent:]
 
 
 class Generator(nn.Module):
@@ -85,19 +134,26 @@ class Generator(nn.Module):
         self.lstm = nn.LSTMCell(3 * widths[-1], m.lstm_size)
         self.current_head = nn.Linear(m.lstm_size, 2 * m.latent_dim)
         self.target_head = nn.Linear(m.lstm_size, 2 * m.latent_dim)
-        dec_in = m.latent_dim + 2 * state + (m.lstm_size if m.decoder_uses_lstm else 0)
+        self.posterior = (Posterior(m.lstm_size, state, widths[-1], m.latent_dim, m.activation)
+                          if m.posterior == "next_frame" else None)
         num_out = 3 + joints * 4 + d.num_contacts
-        sizes = [dec_in] + list(m.decoder_widths) + [num_out]
+        outs = list(m.decoder_widths) + [num_out]
+        first = m.latent_dim + 2 * state + (m.lstm_size if m.decoder_uses_lstm else 0)
+        z_extra = m.latent_dim if m.z_every_layer else 0
+        ins = [first] + [width + z_extra for width in outs[:-1]]
         if m.phase_modulation:
             self.gating = mlp([2 * d.num_contacts] + list(m.gating_widths) + [m.num_experts], m.activation,
                               activate_last=False)
-            self.experts = nn.ModuleList(MoELayer(sizes[i], sizes[i + 1], m.num_experts)
-                                         for i in range(len(sizes) - 1))
-            self.act = _gelu_exact_check(m.activation)()
+            self.layers = nn.ModuleList(MoELayer(i, o, m.num_experts) for i, o in zip(ins, outs))
         else:
-            self.decoder = mlp(sizes, m.activation, activate_last=False)
+            self.layers = nn.ModuleList(nn.Linear(i, o) for i, o in zip(ins, outs))
+        self.act = _make_activation(m.activation)
 
-    def forward(self, carry, state, target, offset, gamma, phase, eps):
+    def forward(self, carry, state, target, offset, gamma, phase, eps, next_state=None):
+        """carry (c, h); state, target (B, S); offset (B, J*4+3[+1]); gamma () tensor; phase (B, P);
+        eps (B, latent); next_state (B, S) ground truth of the frame made (z from q) or None (z from p).
+        Returns ((c, h), decoder output (B, 3 + J*4 + C), Gaussians {mu_blend, logvar_blend (p),
+        mu_posterior, logvar_posterior (q, = p without next_state)})."""
         m = self.config.model
         latent = m.latent_dim
         x = torch.cat([self.state_encoder(state), self.offset_encoder(offset), self.target_encoder(target)], -1)
@@ -111,23 +167,27 @@ class Generator(nn.Module):
             mean = (1 - gamma) * mu + gamma * mu_t
             if m.variance_blend == "std":
                 std = (1 - gamma) * torch.exp(0.5 * logvar) + gamma * torch.exp(0.5 * logvar_t)
-                mu_b, logvar_b = mean, 2.0 * torch.log(std)
+                mu_p, logvar_p = mean, 2.0 * torch.log(std)
             else:
                 var = (1 - gamma) ** 2 * torch.exp(logvar) + gamma ** 2 * torch.exp(logvar_t)
-                mu_b, logvar_b = mean, torch.log(var)
+                mu_p, logvar_p = mean, torch.log(var)
         else:
-            mu_b, logvar_b = mu, logvar
-        z = mu_b + torch.exp(0.5 * logvar_b) * eps
+            mu_p, logvar_p = mu, logvar
+        if self.posterior is not None and next_state is not None:
+            mu_q, logvar_q = self.posterior(h, state, next_state)
+        else:
+            mu_q, logvar_q = mu_p, logvar_p
+        z = mu_q + torch.exp(0.5 * logvar_q) * eps
         y = torch.cat([z, state, target] + ([h] if m.decoder_uses_lstm else []), -1)
-        if m.phase_modulation:
-            coefficients = torch.softmax(self.gating(phase), -1)
-            for i, layer in enumerate(self.experts):
-                y = layer(y, coefficients)
-                if i < len(self.experts) - 1:
-                    y = self.act(y)
-        else:
-            y = self.decoder(y)
-        return (c, h), y, (mu_b, logvar_b)
+        coefficients = torch.softmax(self.gating(phase), -1) if m.phase_modulation else None
+        for i, layer in enumerate(self.layers):
+            if i > 0 and m.z_every_layer:
+                y = torch.cat([y, z], -1)
+            y = layer(y, coefficients) if coefficients is not None else layer(y)
+            if i < len(self.layers) - 1:
+                y = self.act(y)
+        gaussians = {"mu_blend": mu_p, "logvar_blend": logvar_p, "mu_posterior": mu_q, "logvar_posterior": logvar_q}
+        return (c, h), y, gaussians
 
 
 class Discriminator(nn.Module):
@@ -204,6 +264,7 @@ def num_steps(config, max_length: int) -> int:
 
 
 def schedule(config, length: int):
+    """(h, k, n_forward, n_backward): split point, stitch buffer, frames each direction makes."""
     if not config.model.bidirectional:
         return length, 0, length, 0
     h = length // 2
@@ -211,14 +272,31 @@ def schedule(config, length: int):
     return h, k, h + k, length - h + k
 
 
+def interpolation_weight(config, frame_number: int, frames_in_direction: int, length: int) -> float:
+    """gamma for the step making a direction's ``frame_number``-th frame: n / N ("direction") or n / (L + 1)."""
+    if config.model.gamma_schedule == "transition":
+        total = length + 1.0
+    else:
+        total = max(float(frames_in_direction), 1.0)
+    return min(max(frame_number / total, 0.0), 1.0)
+
+
+def kl_warmup(step: int, warmup_steps: int) -> float:
+    """KL weight factor min(1, step / warmup_steps) (1 without a warm-up)."""
+    if warmup_steps <= 0:
+        return 1.0
+    return min(max(step / float(warmup_steps), 0.0), 1.0)
+
+
 class Twin:
     """Generators, discriminators, phase network and AdamW optimisers; train step and inference."""
 
     def __init__(self, config, threads: int | None = None):
+        check_supported(config)
         if threads:
             torch.set_num_threads(threads)
         self.config = config
-        m, d = config.model, config.data
+        m, d, lc = config.model, config.data, config.loss
         state = d.num_joints * 4 + 3 + d.num_contacts
         # plain dicts (nn.ModuleDict cannot hold a key named "forward"); parameters via ModuleLists
         self.generators = {"forward": Generator(config), "backward": Generator(config)}
@@ -230,10 +308,23 @@ class Twin:
         self.phase_net = PhaseNet(state, (config.phase.hidden_dim,) * config.phase.num_layers,
                                   2 * d.num_contacts)
         self.phase_net.requires_grad_(False)  # frozen after pretraining
+        self.has_phase = True
+        self.feet = None
+        if lc.foot_skate_weight:
+            from stitchjax import datasets  # the contact joints of the dataset's skeleton
+
+            self.feet = datasets.get(d.dataset).feet
+            if self.feet is None:
+                raise UnsupportedConfig(f"loss.foot_skate_weight needs a dataset with fixed feet; {d.dataset!r} "
+                                        "reads them from its files")
+            self.feet = [int(j) for j in self.feet]
         tc = config.train
         kwargs = dict(lr=tc.learning_rate, betas=(tc.adam_b1, tc.adam_b2), eps=1e-8, weight_decay=tc.weight_decay)
         self.gen_opt = torch.optim.AdamW(self.generator_modules.parameters(), **kwargs)
         self.disc_opt = torch.optim.AdamW(self.discriminator_modules.parameters(), **kwargs)
+        self.step = 0  # updates done (the KL warm-up reads it)
+        self.frame_step = self._frame_step  # torch.compile'd by compile()
+        self.compiled = None
 
     # -------------------------------------------------------------------------------- parameters
 
@@ -265,13 +356,17 @@ class Twin:
             g.lstm.bias_ih.zero_()
             load_linear(g.current_head, p["current_head"])
             load_linear(g.target_head, p["target_head"])
+            if g.posterior is not None:
+                load_linear(g.posterior.hidden, p["posterior"]["hidden"])
+                load_linear(g.posterior.head, p["posterior"]["head"])
             if m.phase_modulation:
                 load_mlp(g.gating, p["gating"])
-                for i, layer in enumerate(g.experts):
+                for i, layer in enumerate(g.layers):
                     layer.weight.copy_(t(p[f"expert_{i}"]["kernel"]).permute(1, 0, 2))  # (in, E, out) -> (E, in, out)
                     layer.bias.copy_(t(p[f"expert_{i}"]["bias"]))
             else:
-                load_mlp(g.decoder, p["decoder"])
+                for i, layer in enumerate(g.layers):
+                    load_linear(layer, p["decoder"][f"dense_{i}"])
         for name in ("disc_short", "disc_long"):
             if name not in params:  # an inference model holds the generators only
                 continue
@@ -291,65 +386,86 @@ class Twin:
 
     # -------------------------------------------------------------------------------- rollout
 
-    def _step(self, gen: Generator, carry, current, target, distance: float, gamma: float, eps):
-        d = self.config.data
+    def compile(self, **options) -> None:
+        """Run the per-frame generator step (state and offset features, phase network, generator, next
+        frame) through ``torch.compile(**options)``; the loop over frames, stitching, FK, losses and the
+        optimisers stay eager. Graphs are built at the first calls (one per generator, with and without
+        the posterior's ground truth, with and without autograd)."""
+        self.frame_step = torch.compile(self._frame_step, **options)
+        self.compiled = {"what": "per-frame generator step (Twin._frame_step)", "options": options}
+
+    def _frame_step(self, gen: Generator, carry, current, target, time_to_target, gamma, eps, next_state):
+        """One generator step for a batch: frame dicts "rotations" (B, J, 4), "root" (B, 3), "velocity"
+        (B, 3), "contacts" (B, C); time_to_target, gamma: () tensors; eps (B, latent); next_state (B, S)
+        or None. Returns (carry, next frame, Gaussians)."""
+        m, d = self.config.model, self.config.data
         batch = current["rotations"].shape[0]
-        state = torch.cat([current["rotations"].flatten(1), current["velocity"], current["contacts"]], -1)
-        target_state = torch.cat([target["rotations"].flatten(1), target["velocity"], target["contacts"]], -1)
+        contacts, target_contacts = current["contacts"], target["contacts"]
+        if not m.contact_input_gradient:
+            contacts, target_contacts = contacts.detach(), target_contacts.detach()
+        state = torch.cat([current["rotations"].flatten(1), current["velocity"], contacts], -1)
+        target_state = torch.cat([target["rotations"].flatten(1), target["velocity"], target_contacts], -1)
         offset = torch.cat([(target["rotations"] - current["rotations"]).flatten(1),
                             (target["root"] - current["root"]) / d.position_scale], -1)
-        if self.config.model.time_to_target_input:
-            offset = torch.cat([offset, torch.full((batch, 1), distance / d.fps)], -1)
-        if self.config.model.phase_modulation and getattr(self, "has_phase", True):
-            phase = self.phase_net(state.detach())
+        if m.time_to_target_input:
+            offset = torch.cat([offset, time_to_target.reshape(1, 1).expand(batch, 1)], -1)
+        if m.phase_modulation and self.has_phase:
+            phase = self.phase_net(state.detach() if m.stop_phase_gradient else state)
         else:
-            phase = torch.zeros(batch, 2 * d.num_contacts)
-        carry, y, gaussian = gen(carry, state, target_state, offset, gamma, phase, eps)
+            phase = state.new_zeros(batch, 2 * d.num_contacts)
+        carry, y, gaussians = gen(carry, state, target_state, offset, gamma, phase, eps, next_state)
         n = d.num_joints * 4
         velocity = y[:, :3]
         frame = {"rotations": quat_normalize(current["rotations"] + y[:, 3:3 + n].reshape(batch, d.num_joints, 4)),
                  "root": current["root"] + velocity * d.velocity_scale,
                  "velocity": velocity,
                  "contacts": torch.sigmoid(y[:, 3 + n:])}
-        return carry, frame, gaussian
+        return carry, frame, gaussians
 
-    def rollout(self, start: dict, target: dict, offsets, length: int, eps):
+    def rollout(self, start: dict, target: dict, offsets, length: int, eps, truth: dict | None = None):
         """Bidirectional aligned rollout + stitching for a batch.
 
         start/target: dicts "rotations" (B, J, 4), "root_position" (B, 3), "contacts" (B, C);
-        offsets (B, J, 3); eps (B, n >= steps, 2, latent). Returns the stitched motion of L + 2 frames
-        ("rotations", "root_positions", "contacts", "global_positions"), per-direction sequences and the
-        overlap positions.
+        offsets (B, J, 3); eps (B, n >= steps, 2, latent); truth: None (z from the prior) or
+        {"forward", "backward"} (B, >= steps, S) ground-truth states of the frames each step makes
+        (:meth:`next_frame_states`; z from the posterior). Returns the stitched motion of L + 2 frames
+        ("rotations", "root_positions", "contacts", "global_positions"), per-direction sequences with
+        their Gaussians, and the overlap positions.
         """
         m, d = self.config.model, self.config.data
         parents = tuple(d.parents)
         batch = start["rotations"].shape[0]
         h, k, n_fwd, n_bwd = schedule(self.config, length)
         steps = max(n_fwd, n_bwd)
-        zeros = torch.zeros(batch, 3)
+        zeros = start["rotations"].new_zeros(batch, 3)
         start_frame = {"rotations": start["rotations"], "root": start["root_position"], "velocity": zeros,
                        "contacts": start["contacts"]}
         target_frame = {"rotations": target["rotations"], "root": target["root_position"], "velocity": zeros,
                         "contacts": target["contacts"]}
-        carry0 = (torch.zeros(batch, m.lstm_size), torch.zeros(batch, m.lstm_size))
+        carry0 = (zeros.new_zeros(batch, m.lstm_size), zeros.new_zeros(batch, m.lstm_size))
         fwd, bwd = start_frame, target_frame
         fwd_carry, bwd_carry = carry0, carry0
         seqs = {"forward": [], "backward": []}
         gauss = {"forward": [], "backward": []}
         bidir, aligned = m.bidirectional, m.bidirectional_aligning
+        scalar = functools.partial(torch.tensor, dtype=torch.float32)
 
         def reverse(frame):
             return {**frame, "velocity": -frame["velocity"]}
 
+        def time_to_target(distance):
+            return scalar(float(distance)) / d.fps
+
         for i in range(steps):
-            gamma = min(max((i + 1) / (length + 1), 0.0), 1.0)
             if i < n_fwd:
                 if bidir and aligned:
                     f_target, f_dist = reverse(bwd), length + 1 - 2 * i
                 else:
                     f_target, f_dist = target_frame, length + 1 - i
-                fwd_carry, fwd, g = self._step(self.generators["forward"], fwd_carry, fwd, f_target, f_dist,
-                                               gamma, eps[:, i, 0])
+                gamma = scalar(interpolation_weight(self.config, i + 1, n_fwd, length))
+                fwd_carry, fwd, g = self.frame_step(self.generators["forward"], fwd_carry, fwd, f_target,
+                                                    time_to_target(f_dist), gamma, eps[:, i, 0],
+                                                    None if truth is None else truth["forward"][:, i])
                 seqs["forward"].append(fwd)
                 gauss["forward"].append(g)
             if bidir and i < n_bwd:
@@ -357,8 +473,10 @@ class Twin:
                     b_target, b_dist = reverse(fwd), length - 2 * i
                 else:
                     b_target, b_dist = start_frame, length + 1 - i
-                bwd_carry, bwd, g = self._step(self.generators["backward"], bwd_carry, bwd, b_target, b_dist,
-                                               gamma, eps[:, i, 1])
+                gamma = scalar(interpolation_weight(self.config, i + 1, n_bwd, length))
+                bwd_carry, bwd, g = self.frame_step(self.generators["backward"], bwd_carry, bwd, b_target,
+                                                    time_to_target(b_dist), gamma, eps[:, i, 1],
+                                                    None if truth is None else truth["backward"][:, i])
                 seqs["backward"].append(bwd)
                 gauss["backward"].append(g)
 
@@ -376,7 +494,10 @@ class Twin:
             w = torch.zeros(length + 2)
         q_f, q_b = fwd_all["rotations"][:, fi], bwd_all["rotations"][:, bi]
         sign = torch.where((q_f * q_b).sum(-1, keepdim=True) < 0, -1.0, 1.0)
-        rot = quat_normalize((1 - w)[:, None, None] * q_f + w[:, None, None] * sign * q_b)
+        w3 = w[:, None, None]
+        q_f = torch.where(w3 >= 0.5, sign * q_f, q_f)  # the lighter-weighted side joins the other's hemisphere
+        q_b = torch.where(w3 < 0.5, sign * q_b, q_b)
+        rot = quat_normalize((1 - w3) * q_f + w3 * q_b)
         root = (1 - w)[:, None] * fwd_all["root"][:, fi] + w[:, None] * bwd_all["root"][:, bi]
         contacts = (1 - w)[:, None] * fwd_all["contacts"][:, fi] + w[:, None] * bwd_all["contacts"][:, bi]
         rot = torch.cat([start["rotations"][:, None], rot[:, 1:-1], target["rotations"][:, None]], 1)
@@ -402,8 +523,7 @@ class Twin:
                          "velocities": torch.stack([f["velocity"] for f in frames], 1)[:, :count],
                          "contacts": torch.stack([f["contacts"] for f in frames], 1)[:, :count],
                          "global_positions": pos[name][:, 1:count + 1],
-                         "mu_blend": torch.stack([g[0] for g in gauss[name]], 1)[:, :count],
-                         "logvar_blend": torch.stack([g[1] for g in gauss[name]], 1)[:, :count]}
+                         **{key: torch.stack([g[key] for g in gauss[name]], 1)[:, :count] for key in gauss[name][0]}}
         if bidir and k > 0:
             frames = h - k + 1 + np.arange(2 * k)
             out["overlap"] = (pos["forward"][:, np.clip(frames, 0, pos["forward"].shape[1] - 1)],
@@ -424,7 +544,12 @@ class Twin:
     def _norm1(self, x, dims):
         return x.abs().sum(dims) if self.config.loss.reduction == "sum" else x.abs().mean(dims)
 
+    def _latent_sum(self, x):
+        return x.sum(-1) if self.config.loss.reduction == "sum" else x.mean(-1)
+
     def _targets(self, batch, length: int, count: int, backward: bool):
+        """Ground truth of a direction's first ``count`` frames in its own time (forward frame i + 1, or
+        backward frame L - i, reversed-time velocities), as ``rollout.direction_frames``."""
         i = np.arange(count + 1)
         frames = np.clip((length + 1 - i) if backward else i, 0, batch["rotations"].shape[1] - 1)
         root = batch["root_positions"][:, frames]
@@ -433,33 +558,65 @@ class Twin:
                 "contacts": batch["contacts"][:, frames][:, 1:],
                 "global_positions": batch["global_positions"][:, frames][:, 1:]}
 
-    def generator_loss(self, batch: dict, length: int, eps):
-        """(total, terms, fake discriminator features) for a batch dict of tensors (B, T, ...)."""
+    def next_frame_states(self, batch: dict, length: int, steps: int | None = None) -> dict:
+        """The posterior's inputs {"forward", "backward"}: (B, steps, S) ground-truth states of the frame each
+        step makes (``rollout.next_frame_states``); steps defaults to what a rollout of ``length`` runs."""
+        if steps is None:
+            steps = max(schedule(self.config, length)[2:])
+        out = {}
+        for name in ("forward", "backward"):
+            tg = self._targets(batch, length, steps, name == "backward")
+            out[name] = torch.cat([tg["rotations"].flatten(2), tg["velocities"], tg["contacts"]], -1)
+        return out
+
+    def _foot_skate(self, out, batch, length: int):
+        feet_positions = out["global_positions"][:, :, self.feet]
+        step = (feet_positions[:, 1:] - feet_positions[:, :-1]) / self.config.data.position_scale
+        weighted = step * batch["contacts"][:, 1:length + 2, :, None]
+        return self._norm1(weighted, (-2, -1)).mean()
+
+    def generator_loss(self, batch: dict, length: int, eps, kl_scale: float = 1.0):
+        """(total, terms, fake discriminator features) for a batch dict of tensors (B, T, ...).
+
+        eps: (B, n, 2, latent) standard normal noise; kl_scale: factor on loss.kl_weight (the warm-up)."""
         lc, d, m = self.config.loss, self.config.data, self.config.model
         start = {"rotations": batch["rotations"][:, 0], "root_position": batch["root_positions"][:, 0],
                  "contacts": batch["contacts"][:, 0]}
         target = {"rotations": batch["rotations"][:, length + 1],
                   "root_position": batch["root_positions"][:, length + 1],
                   "contacts": batch["contacts"][:, length + 1]}
-        out = self.rollout(start, target, batch["offsets"][:, 0], length, eps)
+        truth = self.next_frame_states(batch, length) if m.posterior != "none" else None
+        out = self.rollout(start, target, batch["offsets"][:, 0], length, eps, truth)
         directions = ["forward"] + (["backward"] if m.bidirectional else [])
+        per_direction = ("state", "kl", "kl_penalty", "kl_prior", "fk", "rotation", "velocity", "contact")
         terms: dict[str, torch.Tensor] = {}
         for name in directions:
             o = out[name]
             if o is None:  # no frame in this direction: every term is an empty mean, 0 as in stitchjax
-                for term in ("state", "kl", "fk"):
+                for term in per_direction:
                     terms[f"{term}_{name}"] = torch.zeros(())
                 continue
             tg = self._targets(batch, length, o["rotations"].shape[1], name == "backward")
             rot = self._norm1(o["rotations"] - tg["rotations"], (-2, -1)).mean()
             vel = self._norm1(o["velocities"] - tg["velocities"], -1).mean()
             con = self._norm1(o["contacts"] - tg["contacts"], -1).mean()
-            kl = 0.5 * (o["mu_blend"] ** 2 + torch.exp(o["logvar_blend"]) - 1.0 - o["logvar_blend"])
-            kl = (kl.sum(-1) if lc.reduction == "sum" else kl.mean(-1)).mean()
+            mu_p, logvar_p = o["mu_blend"], o["logvar_blend"]
+            prior_kl = self._latent_sum(0.5 * (mu_p ** 2 + torch.exp(logvar_p) - 1.0 - logvar_p))
+            if m.posterior == "none":
+                kl = penalty = prior_kl.mean()
+            else:  # KL(q || p), and with free bits max(KL, free_bits) per frame in the objective
+                mu_q, logvar_q = o["mu_posterior"], o["logvar_posterior"]
+                per_frame = self._latent_sum(0.5 * (logvar_p - logvar_q
+                                                    + (torch.exp(logvar_q) + (mu_q - mu_p) ** 2) / torch.exp(logvar_p)
+                                                    - 1.0))
+                kl, penalty = per_frame.mean(), torch.clamp(per_frame, min=lc.free_bits).mean()
             fk = self._norm1((o["global_positions"] - tg["global_positions"]) / d.position_scale, (-2, -1)).mean()
-            terms[f"state_{name}"] = lc.beta_rotation * rot + lc.beta_velocity * vel + lc.beta_contact * con
-            terms[f"kl_{name}"], terms[f"fk_{name}"] = kl, fk
-        for term in ("state", "kl", "fk"):
+            values = {"state": lc.beta_rotation * rot + lc.beta_velocity * vel + lc.beta_contact * con,
+                      "kl": kl, "kl_penalty": penalty, "kl_prior": prior_kl.mean(), "fk": fk,
+                      "rotation": rot, "velocity": vel, "contact": con}
+            for term, value in values.items():
+                terms[f"{term}_{name}"] = value
+        for term in per_direction:
             terms[term] = sum(terms[f"{term}_{n}"] for n in directions) / len(directions)
         if out["overlap"] is not None:
             a, b = out["overlap"]
@@ -467,28 +624,39 @@ class Twin:
         else:
             terms["stitch"] = torch.zeros(())
         fake = self.disc_features(out["global_positions"], out["root_positions"])
-        total = lc.kl_weight * terms["kl"] + lc.stitch_weight * terms["stitch"] + lc.fk_weight * terms["fk"]
-        total = total + terms["state"]
+        zero = torch.zeros(())
+        terms["adv_g_short"] = terms["adv_g_long"] = zero
         if lc.gen_weight:
             for name in ("disc_short", "disc_long"):
                 disc = self.discriminators[name]
                 # a transition shorter than the window has no window position: the term is 0
-                term = (0.5 * ((disc(fake) - 1) ** 2).mean() if fake.shape[1] >= disc.window
-                        else torch.zeros(()))
-                terms["adv_g_" + name[5:]] = term
-                total = total + lc.gen_weight * term
+                terms["adv_g_" + name[5:]] = (0.5 * ((disc(fake) - 1) ** 2).mean() if fake.shape[1] >= disc.window
+                                              else zero)
+        terms["adv_g"] = terms["adv_g_short"] + terms["adv_g_long"]
+        if lc.foot_skate_weight:
+            terms["foot_skate"] = self._foot_skate(out, batch, length)
+        total = (terms["state"] + lc.kl_weight * kl_scale * terms.pop("kl_penalty")
+                 + lc.stitch_weight * terms["stitch"] + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"])
+        if m.posterior != "none" and lc.prior_kl_weight:
+            total = total + lc.prior_kl_weight * terms["kl_prior"]
+        if lc.foot_skate_weight:
+            total = total + lc.foot_skate_weight * terms["foot_skate"]
+        for name in directions:
+            terms.pop(f"kl_penalty_{name}")
         return total, terms, fake
 
     def discriminator_loss(self, batch: dict, fake):
+        """(loss.disc_weight * L_D, {"adv_d_short", "adv_d_long", "adv_d"}) on the real windows and ``fake``."""
         frames = fake.shape[1]
         real = self.disc_features(batch["global_positions"][:, :frames], batch["root_positions"][:, :frames])
         fake = fake.detach()
-        total = 0.0
+        terms = {}
         for name in ("disc_short", "disc_long"):
             disc = self.discriminators[name]
-            if frames >= disc.window:
-                total = total + 0.5 * ((disc(real) - 1) ** 2).mean() + 0.5 * (disc(fake) ** 2).mean()
-        return self.config.loss.disc_weight * torch.as_tensor(total)
+            terms["adv_d_" + name[5:]] = (0.5 * ((disc(real) - 1) ** 2).mean() + 0.5 * (disc(fake) ** 2).mean()
+                                          if frames >= disc.window else torch.zeros(()))
+        terms["adv_d"] = terms["adv_d_short"] + terms["adv_d_long"]
+        return self.config.loss.disc_weight * terms["adv_d"], terms
 
     # -------------------------------------------------------------------------------- train / infer
 
@@ -496,25 +664,27 @@ class Twin:
         """One update of both generators and both discriminators; returns float losses."""
         if eps is None:
             rng = rng or np.random.default_rng()
-            n = schedule(self.config, length)
-            steps = max(n[2], n[3])
+            steps = max(schedule(self.config, length)[2:])
             eps = torch.from_numpy(rng.standard_normal(
                 (batch["rotations"].shape[0], steps, 2, self.config.model.latent_dim), dtype=np.float32))
+        kl_scale = kl_warmup(self.step, self.config.loss.kl_warmup_steps)
         self.discriminator_modules.requires_grad_(False)
         self.gen_opt.zero_grad(set_to_none=True)
-        loss, terms, fake = self.generator_loss(batch, length, eps)
+        loss, terms, fake = self.generator_loss(batch, length, eps, kl_scale)
         loss.backward()
         self.gen_opt.step()
         self.discriminator_modules.requires_grad_(True)
         self.disc_opt.zero_grad(set_to_none=True)
-        disc_loss = self.discriminator_loss(batch, fake)
+        disc_loss, _ = self.discriminator_loss(batch, fake)
         disc_loss.backward()
         self.disc_opt.step()
+        self.step += 1
         return {"loss": loss.item(), "disc_loss": disc_loss.item()}
 
     def make_inference(self, data: dict, length: int, samples: int, seed: int = 0):
         """A function running ``samples`` transitions of ``length`` frames between window 0's frames 0
-        and length + 1 of ``data`` (numpy, from run_all.synthetic_dataset) without autograd."""
+        and length + 1 of ``data`` (numpy, from run_all.synthetic_dataset) without autograd, z from the
+        prior (as ``inbetween.sample_transitions``)."""
         def kf(i):
             return {"rotations": torch.from_numpy(data["rotations"][0, i][None]).expand(samples, -1, -1),
                     "root_position": torch.from_numpy(data["root_positions"][0, i][None]).expand(samples, -1),
@@ -523,11 +693,11 @@ class Twin:
         start, target = kf(0), kf(length + 1)
         offsets = torch.from_numpy(data["offsets"][0, 0][None]).expand(samples, -1, -1)
         generator = torch.Generator().manual_seed(seed)
-        h, k, n_fwd, n_bwd = schedule(self.config, length)
+        steps = max(schedule(self.config, length)[2:])
 
         def run():
             with torch.inference_mode():
-                eps = torch.randn(samples, max(n_fwd, n_bwd), 2, self.config.model.latent_dim, generator=generator)
+                eps = torch.randn(samples, steps, 2, self.config.model.latent_dim, generator=generator)
                 out = self.rollout(start, target, offsets, length, eps)
                 return out["global_positions"]
 
@@ -553,42 +723,103 @@ def jax_noise(key, batch_size: int, config, max_length: int) -> np.ndarray:
     return np.asarray(eps)
 
 
+def generator_noise(key, batch_size: int, config, max_length: int) -> np.ndarray:
+    """The latent noise (B, n, 2, latent) of ``losses.generator_loss(..., key, ...)``: its rollout
+    (``losses.generator_rollouts``) draws from the first half of ``jax.random.split(key)``."""
+    import jax
+
+    return jax_noise(jax.random.split(key)[0], batch_size, config, max_length)
+
+
 @functools.lru_cache(maxsize=8)
 def _jax_losses(config):
     """stitchjax's generator + discriminator losses, jitted once per config (length is traced)."""
     import jax
     from stitchjax import losses
 
-    def both(params, phase_params, batch, key, length):
-        total, terms, generated = losses.generator_loss(params, phase_params, batch, key, config, length)
-        disc_total, _ = losses.discriminator_loss(params, phase_params, batch, key, config, length, generated)
-        return total, terms, disc_total
+    def both(params, phase_params, batch, key, length, kl_scale):
+        total, terms, generated = losses.generator_loss(params, phase_params, batch, key, config, length, kl_scale)
+        disc_total, disc_terms = losses.discriminator_loss(params, phase_params, batch, key, config, length,
+                                                           generated)
+        return total, terms, disc_total, disc_terms
 
     return jax.jit(both)
 
 
-def check_equal_loss(config, params, phase_params, batch_np: dict, length: int, key) -> dict:
-    """Generator and discriminator losses of stitchjax and the twin on the same weights, batch and noise.
-
-    batch_np: numpy dict (B, T, ...) as from ``features.prepare_dataset``. Returns
-    {"jax_loss", "torch_loss", "jax_terms", "torch_terms", "jax_disc_loss", "torch_disc_loss"}.
-    """
-    import jax.numpy as jnp
-
-    batch_j = {k_: jnp.asarray(v) for k_, v in batch_np.items()}
-    total, terms, disc_total = _jax_losses(config)(params, phase_params, batch_j, key, jnp.int32(length))
+def _twin_and_batch(config, params, phase_params, batch_np: dict, key):
     twin = Twin(config)
     twin.load_flax(params, phase_params)
     batch_t = batch_to_torch(batch_np, np.arange(batch_np["rotations"].shape[0]))
-    eps = torch.from_numpy(np.array(jax_noise(key, batch_np["rotations"].shape[0], config,
-                                              batch_np["rotations"].shape[1] - 2)))
+    eps = torch.from_numpy(np.array(generator_noise(key, batch_np["rotations"].shape[0], config,
+                                                    batch_np["rotations"].shape[1] - 2)))
+    return twin, batch_t, eps
+
+
+def check_equal_loss(config, params, phase_params, batch_np: dict, length: int, key, step: int = 0) -> dict:
+    """Generator and discriminator losses of stitchjax and the twin on the same weights, batch and noise.
+
+    batch_np: numpy dict (B, T, ...) as from ``features.prepare_dataset``; step: the train step whose KL
+    warm-up factor both use. Returns {"jax_loss", "torch_loss", "jax_terms", "torch_terms", "jax_disc_loss",
+    "torch_disc_loss", "jax_disc_terms", "torch_disc_terms", "kl_scale"} (floats and dicts of floats).
+    """
+    import jax.numpy as jnp
+
+    kl_scale = kl_warmup(step, config.loss.kl_warmup_steps)
+    batch_j = {k_: jnp.asarray(v) for k_, v in batch_np.items()}
+    total, terms, disc_total, disc_terms = _jax_losses(config)(params, phase_params, batch_j, key,
+                                                               jnp.int32(length), jnp.float32(kl_scale))
+    twin, batch_t, eps = _twin_and_batch(config, params, phase_params, batch_np, key)
     with torch.no_grad():
-        t_total, t_terms, fake = twin.generator_loss(batch_t, length, eps)
-        t_disc = twin.discriminator_loss(batch_t, fake)
-    return {"jax_loss": float(total), "torch_loss": float(t_total),
-            "jax_terms": {k_: float(terms[k_]) for k_ in t_terms},
+        t_total, t_terms, fake = twin.generator_loss(batch_t, length, eps, kl_scale)
+        t_disc, t_disc_terms = twin.discriminator_loss(batch_t, fake)
+    return {"jax_loss": float(total), "torch_loss": float(t_total), "kl_scale": kl_scale,
+            "jax_terms": {k_: float(v) for k_, v in terms.items()},
             "torch_terms": {k_: float(v) for k_, v in t_terms.items()},
-            "jax_disc_loss": float(disc_total), "torch_disc_loss": float(t_disc)}
+            "jax_disc_loss": float(disc_total), "torch_disc_loss": float(t_disc),
+            "jax_disc_terms": {k_: float(disc_terms[k_]) for k_ in t_disc_terms},
+            "torch_disc_terms": {k_: float(v) for k_, v in t_disc_terms.items()}}
+
+
+def check_equal_gradients(config, params, phase_params, batch_np: dict, length: int, key, step: int = 0) -> dict:
+    """Gradients of the generator objective with respect to a few generator kernels, stitchjax and twin.
+
+    Returns {"name": (jax array, torch array)} in stitchjax's layout (in, out) for the forward and backward
+    generators' LSTM input kernel, first expert / decoder layer and (with a posterior) the posterior's
+    hidden layer: kernels whose gradients pass through the whole rollout.
+    """
+    import jax
+    import jax.numpy as jnp
+    from stitchjax import losses
+
+    kl_scale = kl_warmup(step, config.loss.kl_warmup_steps)
+    batch_j = {k_: jnp.asarray(v) for k_, v in batch_np.items()}
+    generators = {name: params[name] for name in ("forward", "backward")}
+    discriminators = {name: params[name] for name in ("disc_short", "disc_long")}
+
+    def objective(gen_params):
+        return losses.generator_loss({**gen_params, **discriminators}, phase_params, batch_j, key, config,
+                                     jnp.int32(length), kl_scale)[0]
+
+    grads = jax.jit(jax.grad(objective))(generators)
+    twin, batch_t, eps = _twin_and_batch(config, params, phase_params, batch_np, key)
+    twin.discriminator_modules.requires_grad_(False)
+    loss, _, _ = twin.generator_loss(batch_t, length, eps, kl_scale)
+    loss.backward()
+    m = config.model
+    out = {}
+    for name in ("forward", "backward"):
+        g, gp = twin.generators[name], grads[name]["params"]
+        out[f"{name}/lstm/input_kernel"] = (gp["lstm"]["input_kernel"], g.lstm.weight_ih.grad.T)
+        if m.phase_modulation:
+            kernel = gp["expert_0"]["kernel"]  # (in, E, out); the twin's is (E, in, out)
+            out[f"{name}/expert_0/kernel"] = (kernel.reshape(kernel.shape[0], -1),
+                                              g.layers[0].weight.grad.permute(1, 0, 2).flatten(1))
+        else:
+            out[f"{name}/decoder/dense_0/kernel"] = (gp["decoder"]["dense_0"]["kernel"], g.layers[0].weight.grad.T)
+        if g.posterior is not None:
+            out[f"{name}/posterior/hidden/kernel"] = (gp["posterior"]["hidden"]["kernel"],
+                                                      g.posterior.hidden.weight.grad.T)
+    return {name: (np.asarray(a), b.detach().numpy()) for name, (a, b) in out.items()}
 
 
 def matmul_flops(config, batch: int, length: int) -> dict:
@@ -599,7 +830,8 @@ def matmul_flops(config, batch: int, length: int) -> dict:
     (input and weight gradients), except that the phase network is frozen and gets no weight gradient
     (its input gradient is stopped too, so no backward at all); the discriminators: once on the fake
     motion inside the generator loss (forward + input gradient), twice (real, fake) in their own update
-    (forward + weight gradient). Biases, activations, FK and losses are not matmuls and not counted.
+    (forward + weight gradient). The posterior network runs at training only. Biases, activations, FK and
+    losses are not matmuls and not counted.
     """
     m, d = config.model, config.data
     state = d.num_joints * 4 + 3 + d.num_contacts
@@ -614,14 +846,18 @@ def matmul_flops(config, batch: int, length: int) -> dict:
         "lstm": (3 * enc[-1] + m.lstm_size) * 4 * m.lstm_size,
         "heads": 2 * m.lstm_size * 2 * m.latent_dim,
     }
-    dec_in = m.latent_dim + 2 * state + (m.lstm_size if m.decoder_uses_lstm else 0)
-    sizes = [dec_in] + list(m.decoder_widths) + [3 + d.num_joints * 4 + d.num_contacts]
+    if m.posterior == "next_frame":
+        per_step["posterior"] = (m.lstm_size + 2 * state) * enc[-1] + enc[-1] * 2 * m.latent_dim
+    outs = list(m.decoder_widths) + [3 + d.num_joints * 4 + d.num_contacts]
+    ins = ([m.latent_dim + 2 * state + (m.lstm_size if m.decoder_uses_lstm else 0)]
+           + [w + (m.latent_dim if m.z_every_layer else 0) for w in outs[:-1]])
+    decoder = sum(i * o for i, o in zip(ins, outs))
     if m.phase_modulation:
-        per_step["experts"] = m.num_experts * chain(sizes) + sum(m.num_experts * s for s in sizes[1:])  # + blend
+        per_step["experts"] = m.num_experts * decoder + sum(m.num_experts * o for o in outs)  # + blend
         per_step["gating"] = chain([2 * d.num_contacts] + list(m.gating_widths) + [m.num_experts])
         phase_macs = chain([state] + [config.phase.hidden_dim] * config.phase.num_layers + [2 * d.num_contacts])
     else:
-        per_step["decoder"] = chain(sizes)
+        per_step["decoder"] = decoder
         phase_macs = 0
     steps = num_steps(config, length)
     gens = 2 if m.bidirectional else 1

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# The commands that wrote benchmarks/results (from the repository root); figures in benchmarks/README.md.
+# Usage: bash benchmarks/results/run.sh full|quick
+set -euo pipefail
+OUT=benchmarks/results
+case "${1:-}" in
+  full)  # all repetitions of the train and infer sections (the scale sections: --only); the eager twin at the
+    # faster thread setting only (the machine was shared: 2 threads took 20x longer than 1)
+    nice -n 10 python benchmarks/run_all.py --only train,infer --torch-threads faster --json "$OUT/run_all_train_infer.json"
+    ;;
+  quick)  # the headline figures in under 3 minutes (warm jax and inductor caches)
+    time nice -n 10 python benchmarks/run_all.py --quick --json "$OUT/run_all_quick.json"
+    ;;
+  *)
+    echo "usage: $0 full|quick" >&2
+    exit 2
+    ;;
+esac
