@@ -161,8 +161,22 @@ def _dims(shape_text: str) -> tuple[int, ...] | None:
     return tuple(int(d) for d in body.split(",")) if body else ()
 
 
+_DTYPE_BYTES = {"pred": 1, "s8": 1, "u8": 1, "bf16": 2, "f16": 2, "s16": 2, "u16": 2, "f32": 4, "s32": 4, "u32": 4,
+                "f64": 8, "s64": 8, "u64": 8}
+
+
+def _bytes(shape_text: str) -> float:
+    """Bytes of an array shape such as ``f32[28,32,512]{2,1,0}`` (0 for tuples and unknown types)."""
+    dims = _dims(shape_text)
+    dtype = shape_text.strip().split("[", 1)[0]
+    return float(np.prod(dims, dtype=np.float64)) * _DTYPE_BYTES.get(dtype, 0) if dims is not None else 0.0
+
+
 class HloFlops(dict):
-    """Result of :func:`hlo_matmul_flops`: {"matmul_flops", "dots", "loops", "unknown_trip_counts"}."""
+    """Result of :func:`hlo_matmul_flops`: {"matmul_flops", "dots", "loops", "unknown_trip_counts",
+    "copy_bytes", "update_slice_bytes"}: the last two are the bytes written by ``copy`` instructions (their
+    output) and by ``dynamic-update-slice`` (their update operand: the per-step stacking into loop buffers),
+    weighted by the same loop trip counts."""
 
 
 def hlo_matmul_flops(compiled_or_text) -> HloFlops:
@@ -177,6 +191,7 @@ def hlo_matmul_flops(compiled_or_text) -> HloFlops:
     text = compiled_or_text if isinstance(compiled_or_text, str) else compiled_or_text.as_text()
     computations: dict[str, list[str]] = {}
     params: dict[str, dict[str, tuple]] = {}
+    param_texts: dict[str, dict[str, str]] = {}
     entry = None
     current = None
     for line in text.splitlines():
@@ -186,6 +201,7 @@ def hlo_matmul_flops(compiled_or_text) -> HloFlops:
                 current = match.group(1)
                 computations[current] = []
                 params[current] = {name: _dims(shape) for name, shape in _PARAM.findall(match.group(2))}
+                param_texts[current] = dict(_PARAM.findall(match.group(2)))
                 if line.startswith("ENTRY"):
                     entry = current
             continue
@@ -196,16 +212,25 @@ def hlo_matmul_flops(compiled_or_text) -> HloFlops:
 
     calls: dict[str, list[tuple[str, int]]] = {name: [] for name in computations}
     dots: dict[str, list[tuple[str, float]]] = {name: [] for name in computations}
+    moves: dict[str, list[tuple[str, float]]] = {name: [] for name in computations}
     unknown = 0
     loops = []
     for name, lines in computations.items():
         shapes = dict(params[name])
+        shape_texts = dict(param_texts[name])
         for line in lines:
             match = _INSTRUCTION.match(line)
             if not match:
                 continue
             inst, shape_text, opcode, rest = match.groups()
             shapes[inst] = _dims(shape_text)
+            shape_texts[inst] = shape_text
+            if opcode == "copy":
+                moves[name].append(("copy", _bytes(shape_text)))
+            elif opcode == "dynamic-update-slice":
+                operands = re.findall(r"%([\w.\-]+)", rest.split(")")[0])
+                update = shape_texts.get(operands[1], "") if len(operands) > 1 else ""
+                moves[name].append(("update", _bytes(update)))
             if opcode == "while":
                 body = re.search(r"body=%?([\w.\-]+)", rest)
                 cond = re.search(r"condition=%?([\w.\-]+)", rest)
@@ -269,7 +294,12 @@ def hlo_matmul_flops(compiled_or_text) -> HloFlops:
         for _, flops in items:
             total += flops * multiplicity.get(name, 0.0)
             count += 1
-    return HloFlops(matmul_flops=total, dots=count, loops=loops, unknown_trip_counts=unknown)
+    moved = {"copy": 0.0, "update": 0.0}
+    for name, items in moves.items():
+        for kind, size in items:
+            moved[kind] += size * multiplicity.get(name, 0.0)
+    return HloFlops(matmul_flops=total, dots=count, loops=loops, unknown_trip_counts=unknown,
+                    copy_bytes=moved["copy"], update_slice_bytes=moved["update"])
 
 
 if __name__ == "__main__":  # python benchmarks/flops.py: print this CPU's peak figures

@@ -12,8 +12,8 @@ Parts (each one jitted program, compiled ahead of time, timed after two warm-up 
 - train step: ``train.make_train_step`` (batch sampling, the generator part above, AdamW on the generators,
   the discriminator update).
 
-For each: ms per call, matmul FLOPs of the optimised HLO (loop trip counts included, ``flops.py``) and the
-achieved GFLOP/s. Prints figures; asserts nothing. Data: synthetic windows as in ``run_all.py``.
+For each: ms per call, matmul FLOPs of the optimised HLO (loop trip counts included, ``flops.py``), the
+achieved GFLOP/s, and the bytes its copies and its stacking (dynamic-update-slice) write. Prints figures; asserts nothing. Data: synthetic windows as in ``run_all.py``.
 
 ``--profile DIR`` also records a ``jax.profiler`` trace of the generator loss + gradient (open it in
 Perfetto or TensorBoard) and prints the XLA operations that took the most time on the CPU compute
@@ -108,12 +108,12 @@ def parts(batch: int, length: int, dtype: str, reps: int, profile_dir: pathlib.P
         compiled = jax.jit(fn).lower(generators, state.phase_params, sample).compile()
         seconds = run_all.timeit(lambda: jax.block_until_ready(compiled(generators, state.phase_params, sample)),
                                  warmup=2, reps=reps)["median_s"]
-        rows.append((name, seconds, flops_lib.hlo_matmul_flops(compiled)["matmul_flops"]))
+        rows.append((name, seconds, flops_lib.hlo_matmul_flops(compiled)))
     if profile_dir is not None:  # the generator loss + grad compiled last
         print(f"{dtype}, scan_remat={scan_remat}: profiling the generator loss + grad ...")
         profile(compiled, (generators, state.phase_params, sample), profile_dir / f"{dtype}_{scan_remat}", seconds)
     seconds = run_all.timeit(whole.run, warmup=2, reps=reps)["median_s"]
-    rows.append(("train step", seconds, flops_lib.hlo_matmul_flops(whole.compiled)["matmul_flops"]))
+    rows.append(("train step", seconds, flops_lib.hlo_matmul_flops(whole.compiled)))
     return rows
 
 
@@ -137,10 +137,13 @@ def main(argv=None) -> int:
             rows += [(dtype, remat, *row) for row in parts(args.batch, args.length, dtype, args.reps, args.profile,
                                                            remat)]
     print(f"{'matmul dtype':<13} {'scan_remat':<10} {'part':<22} {'ms':>8} {'GFLOP':>8} {'GFLOP/s':>8} "
-          f"{'% fp32 peak':>11}")
-    for dtype, remat, name, seconds, flop in rows:
+          f"{'% fp32 peak':>11} {'copy MB':>8} {'stack MB':>8}")
+    for dtype, remat, name, seconds, hlo in rows:
+        flop = hlo["matmul_flops"]
         print(f"{dtype:<13} {remat:<10} {name:<22} {1e3 * seconds:8.0f} {flop / 1e9:8.1f} {flop / seconds / 1e9:8.1f} "
-              f"{100 * flop / seconds / peak:10.1f}%")
+              f"{100 * flop / seconds / peak:10.1f}% {hlo['copy_bytes'] / 1e6:8.1f} {hlo['update_slice_bytes'] / 1e6:8.1f}")
+    print("copy MB / stack MB: bytes written per call by copy and dynamic-update-slice instructions of the optimised "
+          "HLO (loop trip counts included; flops.hlo_matmul_flops)")
     return 0
 
 
