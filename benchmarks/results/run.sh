@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The commands that wrote benchmarks/results (from the repository root); figures in benchmarks/README.md.
-# Usage: bash benchmarks/results/run.sh full|quick
+# Usage: bash benchmarks/results/run.sh full|quick|quick_idle
 set -euo pipefail
 OUT=benchmarks/results
 case "${1:-}" in
@@ -11,8 +11,11 @@ case "${1:-}" in
   quick)  # the headline figures in under 3 minutes (warm jax and inductor caches)
     time nice -n 10 python benchmarks/run_all.py --quick --json "$OUT/run_all_quick.json"
     ;;
+  quick_idle)  # the same on the idle machine (nothing else running)
+    time python benchmarks/run_all.py --quick --json "$OUT/run_all_quick_idle.json"
+    ;;
   *)
-    echo "usage: $0 full|quick" >&2
+    echo "usage: $0 full|quick|quick_idle" >&2
     exit 2
     ;;
 esac

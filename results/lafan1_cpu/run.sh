@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh train|train_long|evaluate|evaluate_long|figures   (from the repository root)
+# Usage: bash results/lafan1_cpu/run.sh train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+# (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
 OUT=results/lafan1_cpu
@@ -28,6 +29,35 @@ case "${1:-}" in
     bin/train --config lafan1_cpu --workdir runs/footskate --data "$DATA" --no-progress --max-steps "${SKATE_STEPS:?}" \
       loss.foot_skate_weight=4 train.lr_decay_to=0.1 train.lr_decay_from_step=7079 train.lr_decay_until_step=9579
     ;;
+  finetune)  # three fine-tunes of the reproduction model (runs/cvae_long, step 10930) side by side, 1500 steps
+    # each at 0.3 x the learning rate: the control, prior samples in a quarter of each batch, the same with
+    # the foot-skate term, then prior samples in half of each batch, with and without it (results/README.md,
+    # "Prior samples at training"); at nice -n 10, two or three at a time, beside the evaluations
+    FT="--config lafan1_cpu --init-from runs/cvae_long --data $DATA --no-progress --max-steps ${FT_STEPS:-12430}"
+    LR="train.lr_decay_to=0.3 train.lr_decay_from_step=10930 train.lr_decay_until_step=10931"
+    bin/train $FT --workdir runs/ft_control $LR loss.prior_sample_fraction=0 &
+    bin/train $FT --workdir runs/ft_prior25 $LR loss.prior_sample_fraction=0.25 &
+    bin/train $FT --workdir runs/ft_prior25_skate8 $LR loss.prior_sample_fraction=0.25 loss.foot_skate_weight=8 &
+    wait
+    bin/train $FT --workdir runs/ft_prior50 $LR loss.prior_sample_fraction=0.5 &
+    bin/train $FT --workdir runs/ft_prior50_skate8 $LR loss.prior_sample_fraction=0.5 loss.foot_skate_weight=8 &
+    wait
+    ;;
+  evaluate_finetune)
+    for run in ft_control ft_prior25 ft_prior25_skate8 ft_prior50; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0 \
+        --json $OUT/${run}.json
+    done
+    for run in ft_prior50 ft_prior50_skate8; do  # every length, noise x0 / x0.5, and the latent-pair search
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --json $OUT/${run}_full.json
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --search 4 --noise-scales "" \
+        --json $OUT/${run}_full_search4.json
+    done
+    python results/figures.py --checkpoint runs/ft_prior50_skate8 --data "$DATA" --out $OUT/figures_ft_prior50_skate8
+    python results/noise_correlation.py --checkpoint runs/cvae_long --data "$DATA" --json $OUT/noise_correlation.json
+    python results/foot_slide_frames.py --checkpoint runs/cvae_long --data "$DATA" --length 30 \
+      --out $OUT/foot_slide_frames
+    ;;
   evaluate_long)
     bin/evaluate model --checkpoint runs/kl05/checkpoints/6250 --data "$DATA" --samples 10 --lengths 30,50 \
       --json $OUT/kl05_step6250.json
@@ -53,5 +83,6 @@ case "${1:-}" in
     python results/placed_target.py --checkpoint runs/cvae_long --data "$DATA" --length 50 --out $OUT/placed_target
     python results/cmu_contacts.py --data ../shared/data/cmu --workdir runs/cmu --out results/cmu
     ;;
-  *) echo "usage: bash results/lafan1_cpu/run.sh train|train_long|evaluate|evaluate_long|figures" >&2; exit 2 ;;
+  *) echo "usage: bash results/lafan1_cpu/run.sh train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures" >&2
+     exit 2 ;;
 esac
