@@ -6,6 +6,11 @@ Everything the paper fixes stays (both generators, aligning, stitching, latent i
 experts, the loss weights); the widths are cut so that one step at L = 50 takes well under a second on 2
 cores, the learning rate is raised for the short run, and the length grows faster (5 -> 50 by half of the
 run, then the rest at the full length). The paper-size `lafan1` config is for GPUs.
+
+The reproduction model in results/ was trained with this config for 10930 steps, then fine-tuned for 1500
+steps with `loss.prior_sample_fraction=0.5 loss.foot_skate_weight=8` at 0.3 x the learning rate
+(`bash results/lafan1_cpu/run.sh train`, `train_long`, `finetune`); both fields stay at their defaults
+here so that the committed runs reproduce.
 """
 import dataclasses
 import pathlib
