@@ -433,6 +433,23 @@ def compiled_twin(config, params, phase_params, threads: int):
     return twin
 
 
+def timed_functions(args, jax_fn, jax_bf16_fn, torch_fn, compiled_fn, threads: int, default_threads: int) -> dict:
+    """The functions a section times side by side: stitchjax, the eager twin (at the probe's thread setting
+    with --torch-threads faster, else at each variant), the compiled twin, and where bfloat16 rows run
+    (jax_bf16_fn not None) stitchjax in bfloat16 and, outside --quick, the autocast twin (autocast gains the
+    eager twin nothing on AMX machines, README; --quick compares bfloat16 with the float32 twin)."""
+    if args.torch_threads == "faster":  # the thread setting the probe chose
+        torch_fns = {thread_key(threads, default_threads): with_threads(torch_fn, threads)}
+    else:
+        torch_fns = torch_thread_variants(torch_fn)
+    fns = {"jax": jax_fn, **torch_fns, "torch_compiled": compiled_fn}
+    if jax_bf16_fn is not None:
+        fns["jax_bfloat16"] = jax_bf16_fn
+        if not args.quick:
+            fns["torch_bfloat16_autocast"] = torch_bfloat16(torch_fn, threads)
+    return fns
+
+
 def best_torch_s(timings: dict, any_precision: bool = False) -> float:
     """The fastest median over the eager float32 torch variants timed (with any_precision: bfloat16 too)."""
     return min(t["median_s"] for name, t in timings.items()
@@ -491,15 +508,8 @@ def section_train(args, results: dict) -> dict:
         f"its loss vs the eager twin's on the same weights and noise: relative difference {loss_diff:.1e}")
     rng_c = np.random.default_rng(1)
     compiled_step = with_threads(lambda: twin_c.train_step(batch, length, rng=rng_c), threads)
-    if args.torch_threads == "faster":  # the thread setting the probe chose
-        torch_fns = {thread_key(threads, default_threads): with_threads(twin_step, threads)}
-    else:
-        torch_fns = torch_thread_variants(twin_step)
-    fns = {"jax": jax_train.run, **torch_fns, "torch_compiled": compiled_step}
-    if run_bf16:
-        fns["jax_bfloat16"] = jax_train_bf16.run
-        if not args.quick:  # autocast gains the eager twin nothing (README); --quick compares to float32
-            fns["torch_bfloat16_autocast"] = torch_bfloat16(twin_step, threads)
+    fns = timed_functions(args, jax_train.run, jax_train_bf16.run if run_bf16 else None, twin_step, compiled_step,
+                          threads, default_threads)
     # Two warm-up calls for jax (a compiled step runs ~40% slower the first time after compilation); the
     # twins have had theirs above.
     jax_train.run()
@@ -591,15 +601,8 @@ def section_infer(args, results: dict) -> dict:
     log(f"infer: eager twin first call (1 thread) {eager_first_s:.2f} s, compiled twin ({threads} thread(s)) first "
         f"call (compilation + one call) {compiled_first_s:.1f} s; max difference of their joint positions on the same "
         f"noise {diff_cm:.1e} cm")
-    if args.torch_threads == "faster":
-        torch_fns = {thread_key(threads, default_threads): with_threads(torch_fn, threads)}
-    else:
-        torch_fns = torch_thread_variants(torch_fn)
-    fns = {"jax": jax_infer.run, **torch_fns, "torch_compiled": compiled_fn}
-    if run_bf16:
-        fns["jax_bfloat16"] = jax_infer_bf16.run
-        if not args.quick:
-            fns["torch_bfloat16_autocast"] = torch_bfloat16(torch_fn, threads)
+    fns = timed_functions(args, jax_infer.run, jax_infer_bf16.run if run_bf16 else None, torch_fn, compiled_fn,
+                          threads, default_threads)
     timings = interleaved(fns, warmup=1 if args.quick else 2, reps=args.infer_reps)
     torch_s = best_torch_s(timings)
     jax_s = timings["jax"]["median_s"]

@@ -141,7 +141,8 @@ def main(argv=None) -> int:
     for dtype, remat, name, seconds, hlo in rows:
         flop = hlo["matmul_flops"]
         print(f"{dtype:<13} {remat:<10} {name:<22} {1e3 * seconds:8.0f} {flop / 1e9:8.1f} {flop / seconds / 1e9:8.1f} "
-              f"{100 * flop / seconds / peak:10.1f}% {hlo['copy_bytes'] / 1e6:8.1f} {hlo['update_slice_bytes'] / 1e6:8.1f}")
+              f"{100 * flop / seconds / peak:10.1f}% {hlo['copy_bytes'] / 1e6:8.1f} "
+              f"{hlo['update_slice_bytes'] / 1e6:8.1f}")
     print("copy MB / stack MB: bytes written per call by copy and dynamic-update-slice instructions of the optimised "
           "HLO (loop trip counts included; flops.hlo_matmul_flops)")
     return 0

@@ -160,8 +160,8 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
 
     carry: (forward LSTM carry, backward LSTM carry, latest forward frame, latest backward frame);
     i: () step index; eps_i: (2, latent) noise; plan: {"length", "n_forward", "n_backward", "start",
-    "target"} (keyframes as frame dicts), optionally "use_prior" (see :func:`rollout`); probes_i / truth_i: this step's probes and posterior inputs
-    (forward, backward) or None. Returns (carry, outputs) with "forward" / "backward" frame dicts plus
+    "target"} (keyframes as frame dicts), optionally "use_prior" (see :func:`rollout`); probes_i / truth_i:
+    this step's probes and posterior inputs (forward, backward) or None. Returns (carry, outputs) with "forward" / "backward" frame dicts plus
     their Gaussians, and "inputs" (recorded matmul inputs, None unless probed).
     """
     m = config.model
