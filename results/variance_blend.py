@@ -13,15 +13,15 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import pathlib
 import sys
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+import sampling_protocol  # noqa: E402  (results/, beside this script)
 from stitchjax import config as config_lib  # noqa: E402
-from stitchjax import evaluate, lafan1, skeleton, tables, trained_model  # noqa: E402
+from stitchjax import evaluate, trained_model  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -40,13 +40,7 @@ def main(argv=None) -> int:
         methods[name] = evaluate.model_method(dataclasses.replace(model, config=config))
         settings[name] = f"variance_blend={blend}" + (" (trained)" if blend == model.config.model.variance_blend
                                                         else " (at sampling only)")
-    windows = lafan1.test_windows(args.data)
-    stats = lafan1.train_statistics(args.data)
-    results = evaluate.evaluate_protocol(methods, windows, stats, lengths=tuple(int(x) for x in args.lengths.split(",")),
-                                         samples=args.samples, feet=tuple(skeleton.LAFAN1_FEET), settings=settings)
-    print(tables.format_protocol_table(results))
-    pathlib.Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-    pathlib.Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
+    sampling_protocol.evaluate_and_write(methods, settings, args.data, args.lengths, args.samples, args.json)
     return 0
 
 

@@ -1,0 +1,26 @@
+"""The shared tail of the sampling-setting scripts (``variance_blend.py``, ``noise_correlation.py``): the paper's
+protocol for several model methods on the LAFAN1 subject5 test windows, printed and written as JSON."""
+from __future__ import annotations
+
+import json
+import pathlib
+import sys
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from stitchjax import evaluate, lafan1, skeleton, tables  # noqa: E402
+
+
+def evaluate_and_write(methods: dict, settings: dict, data: str, lengths: str, samples: int, json_path: str) -> dict:
+    """``evaluate.evaluate_protocol`` of ``methods`` (name -> method) at the comma-separated ``lengths`` on the
+    test windows of the LAFAN1 folder ``data``, ``samples`` per window; prints the table, writes ``json_path``
+    and returns the results."""
+    windows = lafan1.test_windows(data)
+    stats = lafan1.train_statistics(data)
+    results = evaluate.evaluate_protocol(methods, windows, stats, lengths=tuple(int(x) for x in lengths.split(",")),
+                                         samples=samples, feet=tuple(skeleton.LAFAN1_FEET), settings=settings)
+    print(tables.format_protocol_table(results))
+    pathlib.Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+    pathlib.Path(json_path).write_text(json.dumps(results, indent=2) + "\n")
+    return results
