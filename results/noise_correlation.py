@@ -11,7 +11,6 @@ spread per frame is the same; only how it moves from frame to frame changes.
 """
 from __future__ import annotations
 
-import argparse
 import pathlib
 import sys
 
@@ -23,13 +22,8 @@ from stitchjax import evaluate, trained_model  # noqa: E402
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--checkpoint", required=True)
-    parser.add_argument("--data", required=True)
+    parser = sampling_protocol.parser(__doc__)
     parser.add_argument("--correlations", default="0,0.5,0.9,0.97,1", help="rho values, comma separated")
-    parser.add_argument("--lengths", default="30,50")
-    parser.add_argument("--samples", type=int, default=10)
-    parser.add_argument("--json", required=True)
     args = parser.parse_args(argv)
     model = trained_model.load_model(args.checkpoint)
     methods, settings = {}, {}

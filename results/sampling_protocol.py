@@ -1,7 +1,8 @@
-"""The shared tail of the sampling-setting scripts (``variance_blend.py``, ``noise_correlation.py``): the paper's
+"""The shared options and tail of the sampling-setting scripts (``variance_blend.py``, ``noise_correlation.py``): the paper's
 protocol for several model methods on the LAFAN1 subject5 test windows, printed and written as JSON."""
 from __future__ import annotations
 
+import argparse
 import json
 import pathlib
 import sys
@@ -10,6 +11,17 @@ REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from stitchjax import evaluate, lafan1, skeleton, tables  # noqa: E402
+
+
+def parser(description: str) -> argparse.ArgumentParser:
+    """The options every such script takes: --checkpoint, --data, --lengths, --samples, --json."""
+    out = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
+    out.add_argument("--checkpoint", required=True)
+    out.add_argument("--data", required=True)
+    out.add_argument("--lengths", default="30,50")
+    out.add_argument("--samples", type=int, default=10)
+    out.add_argument("--json", required=True)
+    return out
 
 
 def evaluate_and_write(methods: dict, settings: dict, data: str, lengths: str, samples: int, json_path: str) -> dict:

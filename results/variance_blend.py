@@ -11,7 +11,6 @@ equal (same weights, seed and windows). Only the spread of the prior changes, mo
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import pathlib
 import sys
@@ -25,12 +24,7 @@ from stitchjax import evaluate, trained_model  # noqa: E402
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--checkpoint", required=True)
-    parser.add_argument("--data", required=True)
-    parser.add_argument("--lengths", default="30,50")
-    parser.add_argument("--samples", type=int, default=10)
-    parser.add_argument("--json", required=True)
+    parser = sampling_protocol.parser(__doc__)
     args = parser.parse_args(argv)
     model = trained_model.load_model(args.checkpoint)
     methods, settings = {}, {}
