@@ -479,7 +479,7 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
     truth, use_prior = None, None
     if posterior and config.model.posterior != "none":
         truth = next_frame_states(batch, length, num_steps(config, max_length), config)
-        if config.loss.prior_sample_fraction > 0:
+        if config.loss.prior_sample_fraction != 0:  # prior_sample_flags refuses values outside [0, 1]
             use_prior = prior_sample_flags(key, keys.shape[0], config.loss.prior_sample_fraction)
 
     def run(generators, inputs, constants, probes):

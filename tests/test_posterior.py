@@ -203,6 +203,9 @@ def test_prior_sample_fraction_trains_and_keeps_the_paper_path_at_zero(setup):
     assert max(float(jnp.abs(x).max()) for x in jax.tree.leaves(post)) > 0
     with pytest.raises(ValueError, match="prior_sample_fraction"):
         RO.prior_sample_flags(key, 4, 1.5)
+    with pytest.raises(ValueError, match="prior_sample_fraction"):  # a negative fraction is refused, not ignored
+        RO.rollout_batch(params, phase_params, batch, key,
+                         C.apply_overrides(config, ["loss.prior_sample_fraction=-0.1"]), LENGTH)
 
 
 @pytest.mark.parametrize("rho", [0.5, 0.9])
