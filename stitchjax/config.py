@@ -128,6 +128,10 @@ class LossConfig:
     # samples' ADE at L = 50 from 0.276 to 0.222 m and NPSS from 0.535 to 0.433, mid spread 31.5 -> 11.5 cm
     foot_skate_weight: float = 0.0  # reason: not in the paper (0 = off): > 0 adds losses.foot_skate_loss, the
     # movement of the feet on frames where the ground truth has them in contact (datasets with fixed feet)
+    foot_skate_contacts: str = "truth"  # reason: which feet the foot-skate term holds still. "truth": the
+    # ground truth's contact labels (all three components of the movement); "height": the generated foot
+    # itself when it is near the ground, weighted as the foot-slide metric weighs it (horizontal movement
+    # only): a sample drawn from the prior does not step where the ground truth steps
     stitch_weight: float = 0.5  # paper alpha2 (0 = "no stitching loss" ablation)
     fk_weight: float = 0.5  # paper alpha3
     disc_weight: float = 0.1  # paper alpha4 (scales L_D in the discriminator update)
@@ -281,6 +285,7 @@ CHOICES = {
     ("model", "matmul_dtype"): ("float32", "bfloat16"),
     ("model", "variance_blend"): ("std", "var"),
     ("model", "posterior"): ("next_frame", "none"),
+    ("loss", "foot_skate_contacts"): ("truth", "height"),
     ("model", "gamma_schedule"): ("direction", "transition"),
     ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
     ("train", "scan_remat"): ("none", "dots", "nothing"),  # rollout.SCAN_REMAT has one policy each

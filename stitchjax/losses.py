@@ -30,11 +30,13 @@ import jax.numpy as jnp
 from stitchjax import datasets, networks
 from stitchjax import features as F
 from stitchjax import rollout as rollout_lib
+from stitchjax.windows import FOOT_HEIGHT_THRESHOLD_CM
 
 __all__ = [
     "masked_mean", "state_loss", "kl_loss", "fk_loss", "stitching_loss", "lsgan_generator_loss",
     "lsgan_discriminator_loss", "disc_features", "direction_targets", "generator_loss", "gaussian_kl",
-    "posterior_kl_loss", "kl_warmup", "adversarial_generator_terms", "foot_skate_loss", "generator_rollouts",
+    "posterior_kl_loss", "kl_warmup", "adversarial_generator_terms", "foot_skate_loss", "foot_height_contacts",
+    "generator_rollouts",
     "generator_objective",
     "discriminator_loss",
 ]
@@ -121,30 +123,61 @@ def stitching_loss(pos_fwd, pos_bwd, mask, position_scale: float = 1.0, reductio
     return (per_frame * mask).sum(-1) / jnp.maximum(mask.sum(-1), 1.0)
 
 
-def foot_skate_loss(global_positions, contacts, mask, feet, position_scale: float, reduction: str = "sum"):
-    """Foot skate: L1 movement of the contact joints from frame t - 1 to frame t, on the frames t where the
-    ground truth has that joint in contact, / position_scale, mean over valid frames (not in the paper).
+def foot_skate_loss(global_positions, contacts, mask, feet, position_scale: float, reduction: str = "sum",
+                    up_axis: int | None = None):
+    """Foot skate: L1 movement of the contact joints from frame t - 1 to frame t, weighted by the contact of
+    that joint at frame t, / position_scale, mean over valid frames (not in the paper).
 
-    global_positions (..., T, J, 3) generated motion; contacts (..., T, C) ground-truth contact labels of the
-    same frames (0 / 1); mask (..., T) valid frames; feet: the C joint indices of the contact channels.
-    Zero when every foot in contact stays where it was.
+    global_positions (..., T, J, 3) generated motion; contacts (..., T, C) contact weights of the same frames
+    (0 / 1 labels, or soft weights in [0, 1]); mask (..., T) valid frames; feet: the C joint indices of the
+    contact channels; up_axis: None counts every component of the movement, an axis index leaves that one
+    out (horizontal sliding only, so a foot may lift off). Zero when every foot in contact stays where it was.
     """
     feet_positions = global_positions[..., list(feet), :]
     step = (feet_positions[..., 1:, :, :] - feet_positions[..., :-1, :, :]) / position_scale
+    if up_axis is not None:
+        step = step * (jnp.arange(step.shape[-1]) != up_axis).astype(step.dtype)
     weighted = step * contacts[..., 1:, :, None]
     valid = mask[..., 1:] & mask[..., :-1]
     return masked_mean(_norm1(weighted, reduction, (-2, -1)), valid)
 
 
+def foot_height_contacts(global_positions, truth_positions, mask, feet, up_axis: int = 1,
+                         threshold: float = FOOT_HEIGHT_THRESHOLD_CM):
+    """Soft contacts of the generated feet from their height, as the foot-slide metric weighs them, shifted
+    so that frame t carries the weight of frame t - 1 (the frame a movement to t starts from).
+
+    w = clip(2 - 2^(h / threshold), 0, 1), h the joint's height above the ground: the lowest ground-truth
+    foot height over the valid frames. global_positions / truth_positions (..., T, J, 3) in data units
+    (centimetres for every registered dataset); mask (..., T). Returns (..., T, C) weights, no gradient.
+    """
+    truth_heights = truth_positions[..., list(feet), up_axis]  # (..., T, C)
+    valid = mask[..., :, None]
+    ground = jnp.min(jnp.where(valid, truth_heights, jnp.inf), axis=(-2, -1))
+    ground = jnp.where(jnp.isfinite(ground), ground, 0.0)
+    height = global_positions[..., list(feet), up_axis] - ground[..., None, None]
+    weight = jnp.clip(2.0 - jnp.power(2.0, height / threshold), 0.0, 1.0)
+    shifted = jnp.concatenate([jnp.zeros_like(weight[..., :1, :]), weight[..., :-1, :]], axis=-2)
+    return jax.lax.stop_gradient(shifted)
+
+
 def _foot_skate_term(out, batch, loss_config, data_config):
-    """loss.foot_skate_weight's term on the stitched motion `out`, with the dataset's feet."""
-    feet = datasets.get(data_config.dataset).feet
+    """loss.foot_skate_weight's term on the stitched motion `out`, with the dataset's feet and the contacts
+    that ``loss.foot_skate_contacts`` names."""
+    entry = datasets.get(data_config.dataset)
+    feet = entry.feet
     if feet is None:
         raise ValueError(f"loss.foot_skate_weight needs a dataset with fixed feet; {data_config.dataset!r} "
                          "reads them from its files (set loss.foot_skate_weight=0)")
-    t = out["global_positions"].shape[1]
-    return foot_skate_loss(out["global_positions"], batch["contacts"][:, :t], out["mask"], feet,
-                           data_config.position_scale, loss_config.reduction)
+    positions, mask = out["global_positions"], out["mask"]
+    t = positions.shape[1]
+    if loss_config.foot_skate_contacts == "truth":
+        return foot_skate_loss(positions, batch["contacts"][:, :t], mask, feet, data_config.position_scale,
+                               loss_config.reduction)
+    up_axis = "xyz".index(entry.up_axis[-1])
+    contacts = foot_height_contacts(positions, batch["global_positions"][:, :t], mask, feet, up_axis)
+    return foot_skate_loss(positions, contacts, mask, feet, data_config.position_scale, loss_config.reduction,
+                           up_axis=up_axis)
 
 
 def lsgan_generator_loss(fake_scores, mask):

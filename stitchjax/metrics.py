@@ -17,8 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from stitchjax import windows
+
 LAFAN1_METRES_PER_UNIT = 0.01
-FOOT_HEIGHT_THRESHOLD_CM = 2.5
+FOOT_HEIGHT_THRESHOLD_CM = windows.FOOT_HEIGHT_THRESHOLD_CM
 
 
 def _f64(x) -> np.ndarray:

@@ -490,11 +490,16 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
             return rollout(generators, phase_params, s, t, o, k, config, length, max_length, probes=p,
                            ground_truth=g, use_prior=u)
 
-        return jax.vmap(one)(start, target, offsets, keys, truth, probes, use_prior)
+        if probes is None:
+            return jax.vmap(one)(start, target, offsets, keys, truth, None, use_prior)
+        # Probes in and recorded matmul inputs out stay step-major (steps, B, ...), the layout the batched
+        # scan keeps them in, so the after-scan kernel gradients read both without a transposing copy.
+        return jax.vmap(one, in_axes=(0, 0, 0, 0, 0, 1, 0), out_axes=(0, 1))(start, target, offsets, keys,
+                                                                             truth, probes, use_prior)
 
     inputs, constants = (phase_params, start, target, offsets, truth), (keys, length, use_prior)
     if config.train.weight_gradients_after_scan:
-        leading = (keys.shape[0], num_steps(config, max_length))
+        leading = (num_steps(config, max_length), keys.shape[0])
         run_probed = scan_gradients.gradients_after_scan(run, leading, config.model.matmul_dtype)
         return run_probed(generators, inputs, constants)
     return run(generators, inputs, constants, None)

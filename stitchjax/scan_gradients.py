@@ -74,7 +74,8 @@ def gradients_after_scan(run, leading: tuple, matmul_dtype: str = "float32"):
     """``run`` with its generator kernel gradients formed after the scan.
 
     run(generators, inputs, constants, probes) -> output when probes is None, else (output, recorded
-    matmul inputs {"forward", "backward"}); leading: the probes' leading shape (batch, scan steps).
+    matmul inputs {"forward", "backward"}); leading: the probes' leading shape (the rollout's: (scan steps,
+    batch), the order its recorded inputs come out in).
     inputs: a pytree differentiated as usual; constants: a pytree of non-differentiable arrays (keys,
     integer lengths). Returns f(generators, inputs, constants) with run's value and the same gradients as
     plain autodiff of it.

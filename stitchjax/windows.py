@@ -36,10 +36,12 @@ __all__ = [
     "center_and_face", "center_and_face_global", "facing_rotation", "Stats", "window_statistics", "moments",
     "combine_moments", "stats_from_moments", "clip_windows", "clip_moments", "concatenate_clips", "clips_statistics",
     "CONTACT_THRESHOLD",
+    "FOOT_HEIGHT_THRESHOLD_CM",
     "FACING_FRAME",
 ]
 
 CONTACT_THRESHOLD = 0.02  # squared displacement per frame, file units² (cm² for LAFAN1)
+FOOT_HEIGHT_THRESHOLD_CM = 2.5  # H of the foot-slide weight clip(2 - 2^(h/H), 0, 1) (DESIGN.md §6); windows are in cm
 FACING_FRAME = 9  # the last of the 10 context frames of the LAFAN1 benchmark
 
 

@@ -162,12 +162,47 @@ def test_foot_skate_loss_counts_only_feet_that_move_while_in_contact():
     assert float(LS.foot_skate_loss(slide, contacts, mask.at[0, 2].set(False), feet, 100.0)) == 0.0  # masked
 
 
-def test_foot_skate_weight_adds_its_term_to_the_generator_objective(setup):
+def test_foot_height_contacts_weigh_feet_as_the_foot_slide_metric_does_one_frame_later():
+    feet = S.LAFAN1_FEET
+    truth = jnp.zeros((1, 4, J, 3)).at[..., 1].set(5.0).at[0, :, feet[1], 1].set(3.0)  # ground: 3 cm
+    heights = jnp.array([0.0, 1.25, 2.5, 10.0])  # above the ground, one per frame, every foot
+    pos = truth.at[0, :, list(feet), 1].set(3.0 + heights[None, :])
+    mask = jnp.ones((1, 4), bool)
+    w = LS.foot_height_contacts(pos, truth, mask, feet, up_axis=1)
+    assert w.shape == (1, 4, len(feet))
+    expected = np.clip(2.0 - 2.0 ** (np.asarray(heights) / 2.5), 0.0, 1.0)  # metrics.foot_slide_parts' weight
+    np.testing.assert_allclose(w[0, 1:, 0], expected[:-1], rtol=1e-6)  # frame t carries frame t - 1's weight
+    assert float(w[0, 0].sum()) == 0.0
+    # the ground comes from valid frames only: a masked frame lower than the rest is ignored
+    low = truth.at[0, 3, feet[0], 1].set(-50.0)
+    np.testing.assert_allclose(LS.foot_height_contacts(pos, low, mask.at[0, 3].set(False), feet), w, rtol=1e-6)
+    assert float(LS.foot_height_contacts(pos, low, mask, feet)[0, 1:].max()) == 0.0  # 53 cm above: no contact
+
+
+def test_foot_skate_on_height_contacts_counts_horizontal_sliding_only():
+    feet = S.LAFAN1_FEET
+    truth = jnp.zeros((1, 4, J, 3))
+    mask = jnp.ones((1, 4), bool)
+    lift = truth.at[0, 2:, feet[0], 1].set(10.0)  # LeftFoot lifts 10 cm from frame 1 to 2: no slide
+    contacts = LS.foot_height_contacts(lift, truth, mask, feet)
+    assert float(LS.foot_skate_loss(lift, contacts, mask, feet, 100.0, up_axis=1)) == 0.0
+    assert float(LS.foot_skate_loss(lift, contacts, mask, feet, 100.0)) > 0  # all components count it
+    slide = truth.at[0, 2:, feet[0], 0].set(10.0)  # on the ground, 10 cm forward: a slide
+    contacts = LS.foot_height_contacts(slide, truth, mask, feet)
+    np.testing.assert_allclose(LS.foot_skate_loss(slide, contacts, mask, feet, 100.0, up_axis=1), 0.1 / 3, rtol=1e-6)
+    # no gradient lifts a foot out of the term: the weights carry none, the vertical component is left out
+    grad = jax.grad(lambda p: LS.foot_skate_loss(p, LS.foot_height_contacts(p, truth, mask, feet), mask, feet,
+                                                 100.0, up_axis=1))(slide)
+    assert float(jnp.abs(grad[..., 1]).max()) == 0.0 and float(jnp.abs(grad[..., 0]).max()) > 0
+
+
+@pytest.mark.parametrize("contacts", ["truth", "height"])
+def test_foot_skate_weight_adds_its_term_to_the_generator_objective(setup, contacts):
     config, params, phase_params, batch = setup
-    config = C.apply_overrides(config, ["loss.foot_skate_weight=2.0"])
+    config = C.apply_overrides(config, ["loss.foot_skate_weight=2.0", f"loss.foot_skate_contacts={contacts}"])
     total, terms, _ = LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), config, jnp.int32(8))
     lc = config.loss
-    assert float(terms["foot_skate"]) > 0  # random contacts and a random rollout: some feet in contact move
+    assert float(terms["foot_skate"]) > 0  # a random rollout: some feet in contact move
     base, base_terms, _ = LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1),
                                             C.apply_overrides(config, ["loss.foot_skate_weight=0"]), jnp.int32(8))
     assert "foot_skate" not in base_terms
