@@ -7,10 +7,11 @@ experts, the loss weights); the widths are cut so that one step at L = 50 takes 
 cores, the learning rate is raised for the short run, and the length grows faster (5 -> 50 by half of the
 run, then the rest at the full length). The paper-size `lafan1` config is for GPUs.
 
-The reproduction model in results/ was trained with this config for 10930 steps, then fine-tuned for 1500
-steps with `loss.prior_sample_fraction=0.5 loss.foot_skate_weight=8` at 0.3 x the learning rate
-(`bash results/lafan1_cpu/run.sh train`, `train_long`, `finetune`); both fields stay at their defaults
-here so that the committed runs reproduce.
+Trained from scratch with this config (`repro` in results/lafan1_cpu/scratch, 8000 steps, ~1.4 h on 2 cores
+shared with two other runs); the reproduction model (`height32`) is the same run from step 2000 with
+`loss.foot_skate_contacts=height loss.foot_skate_weight=32` (7-13 % less foot slide, measured;
+`bash results/lafan1_cpu/run.sh scratch`). The earlier models in results/lafan1_cpu were trained before
+prior_sample_fraction and foot_skate_weight were set here (run.sh passes their old values).
 """
 import dataclasses
 import pathlib

@@ -1,32 +1,63 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|train|train_long|finetune|evaluate|evaluate_long|
+#        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
 OUT=results/lafan1_cpu
+# The runs before "scratch" were made when lafan1_cpu had no prior samples and no foot-skate term:
+BEFORE="loss.prior_sample_fraction=0 loss.foot_skate_weight=0"
 case "${1:-}" in
+  scratch)  # the reproduction from scratch with prior samples and the foot-skate term from step 0 (configs/lafan1_cpu.py),
+    # "none" trained the same way, and from step 2000 the height-weighted foot-skate term; the three went side by
+    # side on the same 2 cores at nice -n 10 (results/README.md, "From scratch"). The runs were stopped by
+    # SIGTERM and resumed (same state: tests/test_train.py) to add the decay at the steps named here.
+    DECAY="train.lr_decay_to=0.1 train.lr_decay_from_step=5000 train.lr_decay_until_step=8000"
+    bin/train --config lafan1_cpu --workdir runs/repro --data "$DATA" --no-progress --max-steps 8000 $DECAY &
+    bin/train --config lafan1_cpu --workdir runs/none --data "$DATA" --no-progress --max-steps 8000 $DECAY \
+      model.posterior=none &
+    until [ -d runs/repro/checkpoints/2000 ]; do sleep 10; done
+    mkdir -p runs/base2000/checkpoints && cp -r runs/repro/checkpoints/2000 runs/base2000/checkpoints/
+    bin/train --config lafan1_cpu --init-from runs/base2000 --workdir runs/height32 --data "$DATA" --no-progress \
+      --max-steps 8000 $DECAY loss.foot_skate_contacts=height loss.foot_skate_weight=32 &
+    wait
+    ;;
+  evaluate_scratch)
+    for run in repro height32 none; do  # every length, noise x0 / x0.5
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --json $OUT/scratch/$run.json
+    done
+    for run in ${BEST:?} none repro; do  # the latent-pair search
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --search 4 --noise-scales "" \
+        --json $OUT/scratch/${run}_search4.json
+    done
+    for run in $BEST repro; do  # wider sampling
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 1.5,2 \
+        --json $OUT/scratch/${run}_noise.json
+    done
+    python results/figures.py --checkpoint $OUT/scratch/models/$BEST --data "$DATA" --out $OUT/scratch/figures
+    ;;
   train)  # the three runs went side by side on the same 2 cores (nice -n 10); see results/README.md
-    bin/train --config lafan1_cpu --workdir runs/cvae_noprior --data "$DATA" --no-progress  # the reproduction model
-    bin/train --config lafan1_cpu --workdir runs/none --data "$DATA" --no-progress model.posterior=none
-    bin/train --config lafan1_cpu --workdir runs/cvae --data "$DATA" --no-progress loss.prior_rollout=true
+    bin/train --config lafan1_cpu --workdir runs/cvae_noprior --data "$DATA" --no-progress $BEFORE  # the reproduction model
+    bin/train --config lafan1_cpu --workdir runs/none --data "$DATA" --no-progress $BEFORE model.posterior=none
+    bin/train --config lafan1_cpu --workdir runs/cvae --data "$DATA" --no-progress $BEFORE loss.prior_rollout=true
     ;;
   train_long)  # the reproduction run continued, a learning-rate decay, and two loss changes from step 5566
     # (results/README.md, "Longer training, a learning-rate decay, a foot-skate term"); runs/cvae_noprior
     # must hold its step-3000 checkpoint. Stopping and resuming gives the same state (tests/test_train.py).
     cp -r runs/cvae_noprior runs/cvae_long
-    bin/train --config lafan1_cpu --workdir runs/cvae_long --data "$DATA" --no-progress --max-steps 5566
+    bin/train --config lafan1_cpu --workdir runs/cvae_long --data "$DATA" --no-progress $BEFORE --max-steps 5566
     mkdir -p runs/base5566/checkpoints && cp -r runs/cvae_long/checkpoints/5566 runs/base5566/checkpoints/
-    bin/train --config lafan1_cpu --workdir runs/cvae_long --data "$DATA" --no-progress --max-steps 8372
+    bin/train --config lafan1_cpu --workdir runs/cvae_long --data "$DATA" --no-progress $BEFORE --max-steps 8372
     mkdir -p runs/cvae_8372/checkpoints && cp -r runs/cvae_long/checkpoints/8372 runs/cvae_8372/checkpoints/
-    bin/train --config lafan1_cpu --workdir runs/cvae_long --data "$DATA" --no-progress --max-steps "${LONG_STEPS:?}" \
+    bin/train --config lafan1_cpu --workdir runs/cvae_long --data "$DATA" --no-progress $BEFORE --max-steps "${LONG_STEPS:?}" \
       train.lr_decay_to=0.1 train.lr_decay_from_step=8372 train.lr_decay_until_step=10872
-    bin/train --config lafan1_cpu --workdir runs/kl05 --init-from runs/base5566 --data "$DATA" --no-progress \
+    bin/train --config lafan1_cpu --workdir runs/kl05 --init-from runs/base5566 --data "$DATA" --no-progress $BEFORE \
       --max-steps 6536 loss.kl_weight=0.5
-    bin/train --config lafan1_cpu --workdir runs/footskate --init-from runs/base5566 --data "$DATA" --no-progress \
+    bin/train --config lafan1_cpu --workdir runs/footskate --init-from runs/base5566 --data "$DATA" --no-progress $BEFORE \
       --max-steps 7079 loss.foot_skate_weight=4
     mkdir -p runs/footskate_7079/checkpoints && cp -r runs/footskate/checkpoints/7079 runs/footskate_7079/checkpoints/
-    bin/train --config lafan1_cpu --workdir runs/footskate --data "$DATA" --no-progress --max-steps "${SKATE_STEPS:?}" \
+    bin/train --config lafan1_cpu --workdir runs/footskate --data "$DATA" --no-progress $BEFORE --max-steps "${SKATE_STEPS:?}" \
       loss.foot_skate_weight=4 train.lr_decay_to=0.1 train.lr_decay_from_step=7079 train.lr_decay_until_step=9579
     ;;
   finetune)  # three fine-tunes of the reproduction model (runs/cvae_long, step 10930) side by side, 1500 steps
@@ -34,7 +65,7 @@ case "${1:-}" in
     # the foot-skate term, then prior samples in half of each batch, with and without it (results/README.md,
     # "Prior samples at training"); at nice -n 10, two or three at a time, beside the evaluations
     FT="--config lafan1_cpu --init-from runs/cvae_long --data $DATA --no-progress --max-steps ${FT_STEPS:-12430}"
-    LR="train.lr_decay_to=0.3 train.lr_decay_from_step=10930 train.lr_decay_until_step=10931"
+    LR="$BEFORE train.lr_decay_to=0.3 train.lr_decay_from_step=10930 train.lr_decay_until_step=10931"
     bin/train $FT --workdir runs/ft_control $LR loss.prior_sample_fraction=0 &
     bin/train $FT --workdir runs/ft_prior25 $LR loss.prior_sample_fraction=0.25 &
     bin/train $FT --workdir runs/ft_prior25_skate8 $LR loss.prior_sample_fraction=0.25 loss.foot_skate_weight=8 &
@@ -83,6 +114,6 @@ case "${1:-}" in
     python results/placed_target.py --checkpoint runs/cvae_long --data "$DATA" --length 50 --out $OUT/placed_target
     python results/cmu_contacts.py --data ../shared/data/cmu --workdir runs/cmu --out results/cmu
     ;;
-  *) echo "usage: bash results/lafan1_cpu/run.sh train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures" >&2
+  *) echo "usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures" >&2
      exit 2 ;;
 esac
