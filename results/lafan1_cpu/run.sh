@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|train|train_long|finetune|evaluate|evaluate_long|
+# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -36,6 +36,19 @@ case "${1:-}" in
         --json $OUT/scratch/${run}_noise.json
     done
     python results/figures.py --checkpoint $OUT/scratch/models/$BEST --data "$DATA" --out $OUT/scratch/figures
+    ;;
+  finetune_scratch)  # fewer prior samples: two fine-tunes of height32 (step 8000) side by side at 0.3 x the
+    # learning rate, stopped by SIGTERM after ~2000 steps (at steps 10036 and 10159), then evaluated
+    FT="--config lafan1_cpu --init-from runs/height32 --data $DATA --no-progress --max-steps 11000"
+    LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=32"
+    LR="train.lr_decay_to=0.3 train.lr_decay_from_step=8000 train.lr_decay_until_step=8001"
+    bin/train $FT --workdir runs/h32_prior25 $LOSS $LR loss.prior_sample_fraction=0.25 &
+    bin/train $FT --workdir runs/h32_prior50 $LOSS $LR &
+    wait
+    for run in h32_prior25 h32_prior50; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0 \
+        --json $OUT/scratch/$run.json
+    done
     ;;
   train)  # the three runs went side by side on the same 2 cores (nice -n 10); see results/README.md
     bin/train --config lafan1_cpu --workdir runs/cvae_noprior --data "$DATA" --no-progress $BEFORE  # the reproduction model
@@ -114,6 +127,6 @@ case "${1:-}" in
     python results/placed_target.py --checkpoint runs/cvae_long --data "$DATA" --length 50 --out $OUT/placed_target
     python results/cmu_contacts.py --data ../shared/data/cmu --workdir runs/cmu --out results/cmu
     ;;
-  *) echo "usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures" >&2
+  *) echo "usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures" >&2
      exit 2 ;;
 esac
