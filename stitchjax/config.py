@@ -287,9 +287,9 @@ CHOICES = {
     ("model", "matmul_dtype"): ("float32", "bfloat16"),
     ("model", "variance_blend"): ("std", "var"),
     ("model", "posterior"): ("next_frame", "none"),
-    ("loss", "foot_skate_contacts"): ("truth", "height"),
     ("model", "gamma_schedule"): ("direction", "transition"),
     ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
+    ("loss", "foot_skate_contacts"): ("truth", "height"),
     ("train", "scan_remat"): ("none", "dots", "nothing"),  # rollout.SCAN_REMAT has one policy each
 }
 

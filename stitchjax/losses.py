@@ -27,7 +27,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from stitchjax import datasets, networks
+from stitchjax import conform, datasets, networks
 from stitchjax import features as F
 from stitchjax import rollout as rollout_lib
 from stitchjax.windows import FOOT_HEIGHT_THRESHOLD_CM
@@ -174,7 +174,11 @@ def _foot_skate_term(out, batch, loss_config, data_config):
     if loss_config.foot_skate_contacts == "truth":
         return foot_skate_loss(positions, batch["contacts"][:, :t], mask, feet, data_config.position_scale,
                                loss_config.reduction)
-    up_axis = "xyz".index(entry.up_axis[-1])
+    up = conform.parse_axis(entry.up_axis)
+    if up.sum() < 0:  # heights would be measured downwards
+        raise ValueError(f"loss.foot_skate_contacts='height' needs windows with a positive up axis; "
+                         f"{data_config.dataset!r} loads them {entry.up_axis!r} up (use 'truth')")
+    up_axis = int(abs(up).argmax())
     contacts = foot_height_contacts(positions, batch["global_positions"][:, :t], mask, feet, up_axis)
     return foot_skate_loss(positions, contacts, mask, feet, data_config.position_scale, loss_config.reduction,
                            up_axis=up_axis)

@@ -1,10 +1,13 @@
 """Losses: elementary terms, the generator / discriminator objectives and their gradients."""
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from stitchjax import config as C
+from stitchjax import datasets
 from stitchjax import features as F
 from stitchjax import losses as LS
 from stitchjax import networks as N
@@ -194,6 +197,15 @@ def test_foot_skate_on_height_contacts_counts_horizontal_sliding_only():
     grad = jax.grad(lambda p: LS.foot_skate_loss(p, LS.foot_height_contacts(p, truth, mask, feet), mask, feet,
                                                  100.0, up_axis=1))(slide)
     assert float(jnp.abs(grad[..., 1]).max()) == 0.0 and float(jnp.abs(grad[..., 0]).max()) > 0
+
+
+def test_foot_skate_on_height_contacts_refuses_windows_whose_up_axis_points_down(setup, monkeypatch):
+    config, params, phase_params, batch = setup
+    config = C.apply_overrides(config, ["loss.foot_skate_weight=2.0", "loss.foot_skate_contacts=height"])
+    upside_down = dataclasses.replace(datasets.get(config.data.dataset), up_axis="-y")
+    monkeypatch.setattr(datasets, "get", lambda name: upside_down)
+    with pytest.raises(ValueError, match="positive up axis"):
+        LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), config, jnp.int32(8))
 
 
 @pytest.mark.parametrize("contacts", ["truth", "height"])
