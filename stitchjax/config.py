@@ -126,6 +126,11 @@ class LossConfig:
     # them (q is still trained by the KL term); the decoder then sees prior samples at training, at no extra
     # cost (one rollout). Measured on lafan1_cpu (1500-step fine-tunes, results/README.md): 0.5 brings the
     # samples' ADE at L = 50 from 0.276 to 0.222 m and NPSS from 0.535 to 0.433, mid spread 31.5 -> 11.5 cm
+    prior_sample_reconstruction_weight: float = 1.0  # reason: not in the paper (1 = every window alike): the
+    # weight of the reconstruction terms (state and FK) on the windows that prior_sample_fraction draws from the
+    # prior, whose z knows nothing of the ground truth they are scored against; at 1 the decoder learns to
+    # make every prior sample the mean motion (the samples draw together), at 0 only the stitching,
+    # adversarial and foot-skate terms hold them (losses.reconstruction_weights)
     foot_skate_weight: float = 0.0  # reason: not in the paper (0 = off): > 0 adds losses.foot_skate_loss, the
     # movement of the feet on frames where the ground truth has them in contact (datasets with fixed feet)
     foot_skate_contacts: str = "truth"  # reason: which feet the foot-skate term holds still. "truth": the

@@ -35,15 +35,16 @@ from stitchjax.windows import FOOT_HEIGHT_THRESHOLD_CM
 __all__ = [
     "masked_mean", "state_loss", "kl_loss", "fk_loss", "stitching_loss", "lsgan_generator_loss",
     "lsgan_discriminator_loss", "disc_features", "direction_targets", "generator_loss", "gaussian_kl",
-    "posterior_kl_loss", "kl_warmup", "adversarial_generator_terms", "foot_skate_loss", "foot_height_contacts",
-    "generator_rollouts",
+    "posterior_kl_loss", "kl_warmup", "reconstruction_weights", "adversarial_generator_terms", "foot_skate_loss",
+    "foot_height_contacts", "generator_rollouts",
     "generator_objective",
     "discriminator_loss",
 ]
 
 
 def masked_mean(values, mask):
-    """Mean of ``values`` (...,) over entries where ``mask`` (...,) is true; 0 when none is."""
+    """Mean of ``values`` (...,) over entries where ``mask`` (...,) is true; 0 when none is. A float mask
+    weighs the entries: sum(values * mask) / sum(mask)."""
     mask = mask.astype(values.dtype)
     return jnp.sum(values * mask) / jnp.maximum(jnp.sum(mask), 1.0)
 
@@ -216,18 +217,30 @@ def direction_targets(batch, length, num_steps: int, backward: bool, data_config
     return rollout_lib.direction_frames(batch, length, num_steps, backward, data_config)
 
 
-def _direction_terms(out_dir, target, loss_config, data_config, posterior: str):
+def reconstruction_weights(prior_sampled, weight: float):
+    """(B,) weight of each window in the reconstruction terms (state, FK): 1 where z came from the posterior,
+    ``weight`` (``loss.prior_sample_reconstruction_weight``) where ``loss.prior_sample_fraction`` drew it from
+    the prior. prior_sampled: (B,) bool, ``rollout.rollout_batch(...)["prior_sampled"]``. The terms stay
+    means over frames, now weighted: sum(w * loss) / sum(w)."""
+    if weight < 0:
+        raise ValueError(f"loss.prior_sample_reconstruction_weight must be >= 0, got {weight}")
+    return jnp.where(prior_sampled, jnp.float32(weight), jnp.float32(1.0))
+
+
+def _direction_terms(out_dir, target, loss_config, data_config, posterior: str, window_weights=None):
     """Per-direction terms: "state" and its parts, "fk", "kl" (the KL that is reported), "kl_penalty" (what
-    the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I)))."""
+    the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I))). window_weights: (B,) weights
+    of the state and FK terms (:func:`reconstruction_weights`), None = 1."""
     lc = loss_config
     mask = out_dir["mask"]
-    state, parts = state_loss(out_dir, target, mask, lc)
+    recon_mask = mask if window_weights is None else mask * window_weights[:, None].astype(jnp.float32)
+    state, parts = state_loss(out_dir, target, recon_mask, lc)
     prior_kl = kl_loss(out_dir["mu_blend"], out_dir["logvar_blend"], mask, lc.reduction)
     if posterior == "none":
         kl = penalty = prior_kl  # the paper's term: the sampling distribution against N(0, I)
     else:
         kl, penalty = posterior_kl_loss(out_dir, mask, lc.free_bits, lc.reduction)
-    fk = fk_loss(out_dir["global_positions"], target["global_positions"], mask, data_config.position_scale,
+    fk = fk_loss(out_dir["global_positions"], target["global_positions"], recon_mask, data_config.position_scale,
                  lc.reduction)
     return {"state": state, "kl": kl, "kl_penalty": penalty, "kl_prior": prior_kl, "fk": fk, **parts}
 
@@ -289,10 +302,14 @@ def generator_objective(params, out, sampled, batch, length, loss_config, model_
     lc = loss_config
     n = out["forward"]["mask"].shape[1]
     directions = ["forward"] + (["backward"] if model_config.bidirectional else [])
+    window_weights = None
+    if model_config.posterior != "none" and lc.prior_sample_reconstruction_weight != 1.0:
+        window_weights = reconstruction_weights(out["prior_sampled"], lc.prior_sample_reconstruction_weight)
     terms = {}
     for name in directions:
         target = direction_targets(batch, length, n, name == "backward", data_config)
-        for term, value in _direction_terms(out[name], target, lc, data_config, model_config.posterior).items():
+        for term, value in _direction_terms(out[name], target, lc, data_config, model_config.posterior,
+                                            window_weights).items():
             terms[f"{term}_{name}"] = value
     for term in ("state", "kl", "kl_penalty", "kl_prior", "fk", "rotation", "velocity", "contact"):
         terms[term] = sum(terms[f"{term}_{d}"] for d in directions) / len(directions)

@@ -464,7 +464,8 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
     batch's ground truth (when ``model.posterior`` has one); False = from the prior, as at inference. With
     ``loss.prior_sample_fraction`` > 0 each window draws z from the prior instead with that probability
     (:func:`prior_sample_flags`).
-    Returns rollout's dict with a leading B axis.
+    Returns rollout's dict with a leading B axis, and "prior_sampled" (B,) bool: the windows whose z came
+    from the prior (every window with posterior=False or posterior "none").
     Differentiable in gen_params, phase_params and the batch; with ``train.weight_gradients_after_scan``
     the generators' kernel gradients are formed after the scan (module docstring), same values.
     """
@@ -501,8 +502,11 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
     if config.train.weight_gradients_after_scan:
         leading = (num_steps(config, max_length), keys.shape[0])
         run_probed = scan_gradients.gradients_after_scan(run, leading, config.model.matmul_dtype)
-        return run_probed(generators, inputs, constants)
-    return run(generators, inputs, constants, None)
+        out = run_probed(generators, inputs, constants)
+    else:
+        out = run(generators, inputs, constants, None)
+    sampled = jnp.zeros(keys.shape[:1], bool) if use_prior is None else use_prior
+    return {**out, "prior_sampled": sampled if truth is not None else jnp.ones_like(sampled)}
 
 
 def prior_sample_flags(key, batch_size: int, fraction: float):

@@ -208,6 +208,39 @@ def test_prior_sample_fraction_trains_and_keeps_the_paper_path_at_zero(setup):
                          C.apply_overrides(config, ["loss.prior_sample_fraction=-0.1"]), LENGTH)
 
 
+def test_prior_sample_reconstruction_weight_only_reweighs_the_prior_windows_state_and_fk(setup):
+    """loss.prior_sample_reconstruction_weight: at 0 the state and FK terms no longer read the ground truth of
+    the windows drawn from the prior (only the posterior windows are scored); at 1 nothing changes."""
+    config, params, phase_params, batch = setup
+    key = jax.random.PRNGKey(1)
+    mixed = C.apply_overrides(config, ["loss.prior_sample_fraction=0.5"])
+    posterior_key = jax.random.split(key)[0]  # the key generator_rollouts gives the rollout
+    flags = np.asarray(RO.prior_sample_flags(posterior_key, batch["rotations"].shape[0], 0.5))
+    assert flags.any() and not flags.all(), "the test batch must hold both kinds of window"
+    out = RO.rollout_batch(params, phase_params, batch, posterior_key, mixed, LENGTH)
+    np.testing.assert_array_equal(np.asarray(out["prior_sampled"]), flags)
+
+    changed = _changed_in_between(batch)  # the prior windows' in-between ground truth replaced by noise
+    changed = {k: (jnp.where(jnp.asarray(flags).reshape((-1,) + (1,) * (v.ndim - 1)), changed[k], v)
+                   if k in ("rotations", "root_positions", "contacts", "global_positions") else v)
+               for k, v in batch.items()}
+
+    def terms(cfg, b):
+        return losses.generator_loss(params, phase_params, b, key, cfg, LENGTH)[1]
+
+    weight0 = C.apply_overrides(mixed, ["loss.prior_sample_reconstruction_weight=0"])
+    a, b = terms(weight0, batch), terms(weight0, changed)
+    for name in ("state", "fk", "rotation", "velocity"):
+        np.testing.assert_allclose(float(a[name]), float(b[name]), rtol=1e-6, err_msg=name)
+    full_a, full_b = terms(mixed, batch), terms(mixed, changed)  # weight 1: the prior windows are scored
+    assert abs(float(full_a["fk"]) - float(full_b["fk"])) > 1e-3
+    weight1 = C.apply_overrides(mixed, ["loss.prior_sample_reconstruction_weight=1"])
+    assert float(terms(weight1, batch)["state"]) == float(full_a["state"])
+    assert abs(float(a["state"]) - float(full_a["state"])) > 1e-4
+    with pytest.raises(ValueError, match="prior_sample_reconstruction_weight"):
+        terms(C.apply_overrides(mixed, ["loss.prior_sample_reconstruction_weight=-1"]), batch)
+
+
 @pytest.mark.parametrize("rho", [0.5, 0.9])
 def test_correlated_noise_keeps_unit_variance_and_has_the_asked_correlation(rho):
     eps = jax.random.normal(jax.random.PRNGKey(0), (12, 40000))

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|train|train_long|finetune|evaluate|evaluate_long|
+# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -48,6 +48,48 @@ case "${1:-}" in
     for run in h32_prior25 h32_prior50; do
       bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0 \
         --json $OUT/scratch/$run.json
+    done
+    ;;
+  late_prior)  # three fine-tunes of the reproduction model (step 8000) side by side at nice -n 10, to step 10500
+    # (results/README.md, "Prior samples late, a stronger foot-skate term"): skate128 (foot-skate weight 128),
+    # and two "late prior" runs that train on the posterior only (loss.prior_sample_fraction=0) to step 9500 and
+    # with prior samples again from there. 0.3 x the learning rate to step 9500, then a linear decay to 0.1 x at
+    # step 10500. The runs were stopped by SIGTERM at steps 8116-8119 and resumed with these step counts (same
+    # state: tests/test_train.py); skate128 was stopped by SIGTERM just after step 9500 to add the decay.
+    FT="--config lafan1_cpu --data $DATA --no-progress"
+    BASE=$OUT/scratch/models/height32
+    LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=32"
+    LR="train.lr_decay_to=0.3 train.lr_decay_from_step=8000 train.lr_decay_until_step=8001"
+    DECAY="train.learning_rate=1.5e-4 train.lr_decay_to=0.3333 train.lr_decay_from_step=9500 train.lr_decay_until_step=10500"
+    ( bin/train $FT --init-from $BASE --workdir runs/skate128 --max-steps 9500 $LOSS $LR loss.foot_skate_weight=128
+      bin/train $FT --workdir runs/skate128 --max-steps 10500 $LOSS $DECAY loss.foot_skate_weight=128 ) &
+    ( bin/train $FT --init-from $BASE --workdir runs/late_f0 --max-steps 9500 $LOSS $LR loss.prior_sample_fraction=0
+      bin/train $FT --init-from runs/late_f0 --workdir runs/late --max-steps 10500 $LOSS $DECAY ) &
+    ( bin/train $FT --init-from $BASE --workdir runs/late128_f0 --max-steps 9500 $LOSS $LR loss.prior_sample_fraction=0 \
+        loss.foot_skate_weight=128
+      bin/train $FT --init-from runs/late128_f0 --workdir runs/late128 --max-steps 10500 $LOSS $DECAY loss.foot_skate_weight=128 ) &
+    wait
+    ;;
+  evaluate_late_prior)  # L = 30 and 50 at noise x0, x1 and x1.5 for each run; the control is scratch/h32_prior50.json
+    for run in skate128 late late128; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
+        --json $OUT/late_prior/$run.json
+    done
+    ;;
+  reconstruction_weight)  # three continuations of late128 (step 10500) side by side at nice -n 10, to step 12500:
+    # cont128 (nothing changes: the control), recon25 (loss.prior_sample_reconstruction_weight=0.25) and skate512
+    # (foot-skate weight 512); 0.3 x the learning rate to step 11500, then a linear decay meant to reach 0.1 x at
+    # 12500; all three were stopped by SIGTERM just after step 12000 (0.2 x there) to leave time to evaluate them
+    FT="--config lafan1_cpu --data $DATA --no-progress --init-from runs/late128 --max-steps 12500"
+    LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=128"
+    LR="train.learning_rate=1.5e-4 train.lr_decay_to=0.3333 train.lr_decay_from_step=11500 train.lr_decay_until_step=12500"
+    bin/train $FT --workdir runs/cont128 $LOSS $LR &
+    bin/train $FT --workdir runs/recon25 $LOSS $LR loss.prior_sample_reconstruction_weight=0.25 &
+    bin/train $FT --workdir runs/skate512 $LOSS $LR loss.foot_skate_weight=512 &
+    wait
+    for run in cont128 recon25 skate512; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
+        --json $OUT/late_prior/$run.json
     done
     ;;
   train)  # the three runs went side by side on the same 2 cores (nice -n 10); see results/README.md
@@ -127,6 +169,6 @@ case "${1:-}" in
     python results/placed_target.py --checkpoint runs/cvae_long --data "$DATA" --length 50 --out $OUT/placed_target
     python results/cmu_contacts.py --data ../shared/data/cmu --workdir runs/cmu --out results/cmu
     ;;
-  *) echo "usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures" >&2
+  *) echo "usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures" >&2
      exit 2 ;;
 esac
