@@ -233,7 +233,7 @@ def _direction_terms(out_dir, target, loss_config, data_config, posterior: str, 
     of the state and FK terms (:func:`reconstruction_weights`), None = 1."""
     lc = loss_config
     mask = out_dir["mask"]
-    recon_mask = mask if window_weights is None else mask * window_weights[:, None].astype(jnp.float32)
+    recon_mask = mask if window_weights is None else mask * window_weights[:, None]
     state, parts = state_loss(out_dir, target, recon_mask, lc)
     prior_kl = kl_loss(out_dir["mu_blend"], out_dir["logvar_blend"], mask, lc.reduction)
     if posterior == "none":
@@ -303,7 +303,11 @@ def generator_objective(params, out, sampled, batch, length, loss_config, model_
     n = out["forward"]["mask"].shape[1]
     directions = ["forward"] + (["backward"] if model_config.bidirectional else [])
     window_weights = None
-    if model_config.posterior != "none" and lc.prior_sample_reconstruction_weight != 1.0:
+    if lc.prior_sample_reconstruction_weight != 1.0:
+        if model_config.posterior == "none" or lc.prior_sample_fraction == 0:  # no window it could weigh
+            raise ValueError("loss.prior_sample_reconstruction_weight weighs the windows that "
+                             "loss.prior_sample_fraction draws from the prior: set loss.prior_sample_fraction > 0 "
+                             "with a posterior, or leave the weight at 1")
         window_weights = reconstruction_weights(out["prior_sampled"], lc.prior_sample_reconstruction_weight)
     terms = {}
     for name in directions:

@@ -505,8 +505,11 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
         out = run_probed(generators, inputs, constants)
     else:
         out = run(generators, inputs, constants, None)
-    sampled = jnp.zeros(keys.shape[:1], bool) if use_prior is None else use_prior
-    return {**out, "prior_sampled": sampled if truth is not None else jnp.ones_like(sampled)}
+    if truth is None:  # posterior=False or posterior "none": every window from the prior
+        use_prior = jnp.ones(keys.shape[:1], bool)
+    elif use_prior is None:
+        use_prior = jnp.zeros(keys.shape[:1], bool)
+    return {**out, "prior_sampled": use_prior}
 
 
 def prior_sample_flags(key, batch_size: int, fraction: float):

@@ -239,6 +239,8 @@ def test_prior_sample_reconstruction_weight_only_reweighs_the_prior_windows_stat
     assert abs(float(a["state"]) - float(full_a["state"])) > 1e-4
     with pytest.raises(ValueError, match="prior_sample_reconstruction_weight"):
         terms(C.apply_overrides(mixed, ["loss.prior_sample_reconstruction_weight=-1"]), batch)
+    with pytest.raises(ValueError, match="prior_sample_fraction > 0"):  # no prior window: refused, not ignored
+        terms(C.apply_overrides(config, ["loss.prior_sample_reconstruction_weight=0.25"]), batch)
 
 
 @pytest.mark.parametrize("rho", [0.5, 0.9])
