@@ -1,5 +1,5 @@
-"""The shared options and tail of the sampling-setting scripts (``variance_blend.py``, ``noise_correlation.py``): the paper's
-protocol for several model methods on the LAFAN1 subject5 test windows, printed and written as JSON."""
+"""The shared options and tail of the sampling-setting scripts (``variance_blend.py``, ``noise_correlation.py``,
+``noise_ramp.py``): the paper's protocol for several model methods on the LAFAN1 subject5 test windows, printed and written as JSON."""
 from __future__ import annotations
 
 import argparse

@@ -176,7 +176,8 @@ def interpolation_method(windows, start, length, num_samples, seed):
 BASELINE_METHODS: dict[str, Callable] = {"interp": interpolation_method, "zerov": zero_velocity_method}
 
 
-def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correlation: float = 0.0):
+def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correlation: float = 0.0,
+                 noise_ramp_steps: int = 0):
     """The model as a ``Method``:
     ``method(windows, start, length, num_samples, seed) -> (rotations (S, B, L, J, 4), positions (S, B, L, J, 3))``.
 
@@ -184,7 +185,8 @@ def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correla
     ``start`` and ``start + length + 1`` of each window and their foot-contact labels from ``windows.contacts``
     (the keyframes' character state, as in training); it returns the L generated frames only.
     search: latent pairs per sample (0: none); noise_scale: factor on the latent noise; noise_correlation:
-    its correlation from frame to frame (``rollout.correlated_noise``; 0: independent, the paper's).
+    its correlation from frame to frame (``rollout.correlated_noise``; 0: independent, the paper's);
+    noise_ramp_steps: its ramp from each keyframe (``rollout.noise_ramp``; 0: none, the paper's).
     """
     if not isinstance(model, Model):
         model = load_model(model)
@@ -199,7 +201,8 @@ def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correla
         contacts = np.asarray(windows.contacts)
         rotations, positions, _ = inbetween.transitions_in_frame(
             model, rot[:, start], pos[:, start], contacts[:, start], rot[:, target], pos[:, target],
-            contacts[:, target], length, num_samples, seed, search, noise_scale, noise_correlation)
+            contacts[:, target], length, num_samples, seed, search, noise_scale, noise_correlation,
+            noise_ramp_steps)
         # (B, S, L+2, ...) -> generated frames, samples first: (S, B, L, ...)
         return (np.swapaxes(rotations[:, :, 1:-1], 0, 1), np.swapaxes(positions[:, :, 1:-1], 0, 1))
 
@@ -207,10 +210,12 @@ def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correla
     return method
 
 
-def evaluation_method(checkpoint, search: int = 0, noise_scale: float = 1.0, noise_correlation: float = 0.0):
+def evaluation_method(checkpoint, search: int = 0, noise_scale: float = 1.0, noise_correlation: float = 0.0,
+                      noise_ramp_steps: int = 0):
     """:func:`model_method` of a checkpoint folder (``checkpoint`` may also be a loaded ``Model``)."""
     model = checkpoint if isinstance(checkpoint, Model) else load_model(checkpoint)
-    return model_method(model, search=search, noise_scale=noise_scale, noise_correlation=noise_correlation)
+    return model_method(model, search=search, noise_scale=noise_scale, noise_correlation=noise_correlation,
+                        noise_ramp_steps=noise_ramp_steps)
 
 
 # --------------------------------------------------------------------------- protocol

@@ -70,11 +70,12 @@ def stitch_losses(result: dict) -> jax.Array:
 
 @functools.lru_cache(maxsize=32)
 def _compiled_sampler(config, length: int, num_candidates: int, noise_scale: float = 1.0,
-                      noise_correlation: float = 0.0):
+                      noise_correlation: float = 0.0, noise_ramp_steps: int = 0):
     """jit of (params, phase_params, start, target, offsets, key) -> model-frame transitions.
 
     z is drawn from the prior p (the ground truth is never an input); noise_scale multiplies its noise,
-    noise_correlation correlates it over frames (``rollout.correlated_noise``).
+    noise_correlation correlates it over frames (``rollout.correlated_noise``), noise_ramp_steps ramps it
+    up from each keyframe (``rollout.noise_ramp``).
 
     start / target: dicts of (B, ...) keyframes as ``rollout.rollout`` wants them; offsets (B, J, 3).
     Every window gets ``num_candidates`` rollouts (keys: split(key, B), then split(window key,
@@ -84,7 +85,8 @@ def _compiled_sampler(config, length: int, num_candidates: int, noise_scale: flo
     """
     def one(params, phase_params, start, target, offsets, key):
         out = rollout_lib.rollout(params, phase_params, start, target, offsets, key, config, length, length,
-                                  noise_scale=noise_scale, noise_correlation=noise_correlation)
+                                  noise_scale=noise_scale, noise_correlation=noise_correlation,
+                                  noise_ramp_steps=noise_ramp_steps)
         return {"rotations": out["rotations"], "root_positions": out["root_positions"],
                 "contacts": out["contacts"], "global_positions": out["global_positions"],
                 "stitch_loss": stitch_losses(out)}
@@ -123,7 +125,7 @@ def _check_request(model: Model, length: int, num_samples: int, search: int, war
 
 def sample_transitions(model: Model, start: dict, target: dict, offsets, length: int, num_samples: int,
                        seed=0, search: int = 0, noise_scale: float = 1.0,
-                       noise_correlation: float = 0.0) -> dict:
+                       noise_correlation: float = 0.0, noise_ramp_steps: int = 0) -> dict:
     """Transitions in the model's frame for B keyframe pairs (no alignment, no keyframe overwrite).
 
     start, target: {"rotations" (B, J, 4), "root_position" (B, 3), "contacts" (B, C)}, already centred
@@ -135,15 +137,19 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
     noise_scale: factor on the latent noise (0: every sample is the same, the prior's mean path).
     noise_correlation: in [0, 1], the noise's correlation from one frame to the next (0: independent per
       frame, the paper's; ``rollout.correlated_noise``).
+    noise_ramp_steps: >= 0; the noise of each direction rises linearly from 0 at the frame next to its
+      keyframe to full at this many steps (0: full from the first frame, the paper's; ``rollout.noise_ramp``).
     """
     _check_request(model, length, num_samples, search, warn=True)
     if not np.isfinite(noise_scale) or noise_scale < 0:
         raise InbetweenError(f"noise_scale must be a finite number >= 0, got {noise_scale}")
     if not 0.0 <= noise_correlation <= 1.0:
         raise InbetweenError(f"noise_correlation must be in [0, 1], got {noise_correlation}")
+    if int(noise_ramp_steps) != noise_ramp_steps or noise_ramp_steps < 0:
+        raise InbetweenError(f"noise_ramp_steps must be a whole number of frames >= 0, got {noise_ramp_steps}")
     candidates = num_samples * max(int(search), 1)
     fn = _compiled_sampler(model.config, int(length), int(candidates), float(noise_scale),
-                           float(noise_correlation))
+                           float(noise_correlation), int(noise_ramp_steps))
     as32 = functools.partial(jnp.asarray, dtype=jnp.float32)
     out = fn(model.params, model.phase_params, jax.tree.map(as32, start), jax.tree.map(as32, target),
              as32(offsets), _as_key(seed))
@@ -202,7 +208,8 @@ def _check_skeleton(model: Model, skeleton):
 
 def transitions_in_frame(model: Model, start_rotations, start_positions, start_contacts, target_rotations,
                          target_positions, target_contacts, length: int, num_samples: int, seed=0,
-                         search: int = 0, noise_scale: float = 1.0, noise_correlation: float = 0.0):
+                         search: int = 0, noise_scale: float = 1.0, noise_correlation: float = 0.0,
+                         noise_ramp_steps: int = 0):
     """Transitions between B keyframe pairs given in any world frame, returned in that frame.
 
     Keyframes: local rotations (B, J, 4), local positions (B, J, 3) (root = world position, others
@@ -223,7 +230,7 @@ def transitions_in_frame(model: Model, start_rotations, start_positions, start_c
     target = {"rotations": aligned_rot[:, 1], "root_position": aligned_pos[:, 1, 0],
               "contacts": np.asarray(target_contacts, np.float64)}
     out = sample_transitions(model, start, target, sp, length, num_samples, seed, search, noise_scale,
-                             noise_correlation)
+                             noise_correlation, noise_ramp_steps)
 
     rotations = out["rotations"].astype(np.float64)  # (B, S, T, J, 4)
     roots = out["root_positions"].astype(np.float64)  # (B, S, T, 3)

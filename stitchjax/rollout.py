@@ -228,7 +228,8 @@ def stitch(fwd_all, bwd_all, length, h, k, num_frames: int, bidirectional: bool 
 
 
 def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int, noise=None,
-            probes=None, ground_truth=None, noise_scale=1.0, noise_correlation=0.0, use_prior=None):
+            probes=None, ground_truth=None, noise_scale=1.0, noise_correlation=0.0, use_prior=None,
+            noise_ramp_steps: int = 0):
     """Generate one transition.
 
     Args:
@@ -254,6 +255,8 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         (``loss.prior_sample_fraction``); the posterior's Gaussians are still returned.
       noise_correlation: static rho in [0, 1], the correlation of each direction's noise from one step to
         the next (:func:`correlated_noise`); 0 = independent per frame, as in the paper.
+      noise_ramp_steps: static int >= 0; each direction's noise rises linearly from 0 at its first step to
+        full at this step (:func:`noise_ramp`); 0 = full noise from the first step, as in the paper.
     Returns dict (T_out = max_length + 2):
       "rotations" (T_out, J, 4), "root_positions" (T_out, 3), "contacts" (T_out, C),
       "global_positions" (T_out, J, 3): the stitched motion, frame 0 = start and frame L + 1 = target
@@ -270,7 +273,7 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     length = jnp.clip(jnp.asarray(length, jnp.int32), 1, max_length)
     n = num_steps(config, max_length)
     h, k, n_fwd, n_bwd = schedule(config, length)
-    eps = _latent_noise(key, noise, (n, 2, m.latent_dim), dtype, noise_scale, noise_correlation)
+    eps = _latent_noise(key, noise, (n, 2, m.latent_dim), dtype, noise_scale, noise_correlation, noise_ramp_steps)
     if ground_truth is not None and m.posterior == "none":
         raise ValueError("ground_truth given but model.posterior='none': the model has no posterior")
     truth = (None if ground_truth is None else
@@ -323,9 +326,10 @@ def _keyframe_state(keyframe: dict, dtype) -> dict:
             "velocity": jnp.zeros((3,), dtype), "contacts": keyframe["contacts"]}
 
 
-def _latent_noise(key, noise, shape: tuple, dtype, noise_scale, noise_correlation=0.0):
+def _latent_noise(key, noise, shape: tuple, dtype, noise_scale, noise_correlation=0.0, noise_ramp_steps=0):
     """The standard normal latent noise `shape` = (num_steps, 2, latent_dim), drawn from `key` unless
-    `noise` is given, correlated over steps by `noise_correlation`, times `noise_scale`."""
+    `noise` is given, correlated over steps by `noise_correlation`, times `noise_scale` and times
+    :func:`noise_ramp` per step."""
     if noise is None:
         eps = jax.random.normal(key, shape, dtype)
     else:
@@ -333,7 +337,22 @@ def _latent_noise(key, noise, shape: tuple, dtype, noise_scale, noise_correlatio
         if eps.shape != shape:
             raise ValueError(f"noise has shape {eps.shape}; rollout needs {shape} "
                              f"= (num_steps(config, max_length), 2, latent_dim)")
-    return correlated_noise(eps, noise_correlation) * jnp.asarray(noise_scale, dtype)
+    ramp = jnp.asarray(noise_ramp(shape[0], noise_ramp_steps), dtype)[:, None, None]
+    return correlated_noise(eps, noise_correlation) * jnp.asarray(noise_scale, dtype) * ramp
+
+
+def noise_ramp(num_steps: int, ramp_steps: int) -> np.ndarray:
+    """(num_steps,) factors on each direction's latent noise: i / ramp_steps at step i (0-based), 1 from
+    step ramp_steps on. Step 0 of each direction makes the frame next to its keyframe, so with a ramp those
+    frames come from the prior's mean and the samples part towards mid-transition, where the keyframes
+    constrain the motion least. ramp_steps = 0: 1 everywhere (the paper's sampling). Not in the paper: it
+    is an inference setting (measured in results/README.md, "Noise ramp")."""
+    ramp_steps = int(ramp_steps)
+    if ramp_steps < 0:
+        raise ValueError(f"noise_ramp_steps must be >= 0, got {ramp_steps}")
+    if ramp_steps == 0:
+        return np.ones((num_steps,), np.float32)
+    return np.minimum(np.arange(num_steps, dtype=np.float32) / ramp_steps, 1.0)
 
 
 def correlated_noise(eps, rho: float):

@@ -92,6 +92,10 @@ def test_evaluation_method_ignores_the_ground_truth_and_noise_scale_zero_collaps
     assert float(np.abs(shared[1] - a[1]).max()) > 1e-3
     with pytest.raises(trained_model.InbetweenError, match="noise_correlation"):
         evaluate.model_method(model, noise_correlation=-0.5)(windows, 9, LENGTH, 4, 3)
+    ramped = evaluate.model_method(model, noise_ramp_steps=2)(windows, 9, LENGTH, 4, 3)
+    assert np.all(metrics.joint_spread_per_window(ramped[1]) > 0)  # still diverse
+    with pytest.raises(trained_model.InbetweenError, match="noise_ramp_steps"):
+        evaluate.model_method(model, noise_ramp_steps=-1)(windows, 9, LENGTH, 4, 3)
 
 
 def test_one_train_step_changes_the_posterior_and_the_kl_is_kl_q_p():
@@ -260,3 +264,40 @@ def test_correlated_noise_ends():
     np.testing.assert_allclose(one, np.broadcast_to(np.asarray(eps)[:1], one.shape), rtol=1e-6)
     with pytest.raises(ValueError, match="noise_correlation"):
         RO.correlated_noise(eps, 1.2)
+
+
+def test_noise_ramp_factors():
+    np.testing.assert_array_equal(RO.noise_ramp(5, 0), np.ones(5))  # the paper's sampling: no ramp
+    np.testing.assert_allclose(RO.noise_ramp(6, 4), [0.0, 0.25, 0.5, 0.75, 1.0, 1.0])
+    with pytest.raises(ValueError, match="noise_ramp_steps"):
+        RO.noise_ramp(5, -1)
+
+
+def test_noise_ramp_puts_the_frames_next_to_the_keyframes_on_the_mean_path():
+    config = tiny_config()
+    params = N.init_params(config, jax.random.PRNGKey(0))
+    batch = synthetic_batch()
+    length = 10
+    start, target, offsets = jax.tree.map(lambda x: x[0], RO.keyframes_from_batch(batch, length))
+
+    def run(key, ramp):
+        return RO.rollout(params, phase_params_for(config), start, target, offsets, key, config, length, length,
+                          noise_ramp_steps=ramp)
+
+    keys = jax.random.split(jax.random.PRNGKey(3), 2)
+    ramped = [run(k, 4) for k in keys]
+    still = run(keys[0], 4)  # same key, same result
+    mean = RO.rollout(params, phase_params_for(config), start, target, offsets, keys[0], config, length, length,
+                      noise_scale=0.0)
+    for direction in ("forward", "backward"):
+        first = [np.asarray(r[direction]["global_positions"][0]) for r in ramped]
+        # step 0 of each direction (frame 1, frame L) draws no noise: every sample is on the mean path there
+        np.testing.assert_allclose(first[0], first[1], atol=1e-5)
+        np.testing.assert_allclose(first[0], np.asarray(mean[direction]["global_positions"][0]), atol=1e-5)
+        # from step 1 on the samples part
+        second = [np.asarray(r[direction]["global_positions"][1]) for r in ramped]
+        assert np.abs(second[0] - second[1]).max() > 1e-4
+    np.testing.assert_array_equal(still["global_positions"], ramped[0]["global_positions"])
+    plain = [run(k, 0) for k in keys]  # without the ramp the first step already differs
+    assert np.abs(np.asarray(plain[0]["forward"]["global_positions"][0])
+                  - np.asarray(plain[1]["forward"]["global_positions"][0])).max() > 1e-4

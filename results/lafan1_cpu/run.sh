@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|train|train_long|finetune|evaluate|evaluate_long|
+# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -91,6 +91,31 @@ case "${1:-}" in
       bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
         --json $OUT/late_prior/$run.json
     done
+    ;;
+  from_skate512)  # three continuations of late_prior/models/skate512 (step 12003) side by side at nice -n 10, to
+    # step 15500, each with the learning rate decaying fully: from 1e-4 (0.2 x, where skate512 stopped) linearly to
+    # 0.05 x at step 15000. decay512 changes nothing else (the control); wide512 trains on the posterior alone
+    # (loss.prior_sample_fraction=0) to step 13500, then with prior samples again at reconstruction weight 0.25;
+    # stitch512 raises the stitching weight to 2 (the feet slide most inside the stitch overlap)
+    FT="--config lafan1_cpu --data $DATA --no-progress"
+    BASE=$OUT/late_prior/models/skate512
+    LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=512"
+    LR="train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=12003 train.lr_decay_until_step=15000"
+    bin/train $FT --init-from $BASE --workdir runs/decay512 --max-steps 15500 $LOSS $LR &
+    ( bin/train $FT --init-from $BASE --workdir runs/wide512_f0 --max-steps 13500 $LOSS $LR loss.prior_sample_fraction=0
+      bin/train $FT --init-from runs/wide512_f0 --workdir runs/wide512 --max-steps 15500 $LOSS $LR \
+        loss.prior_sample_reconstruction_weight=0.25 ) &
+    bin/train $FT --init-from $BASE --workdir runs/stitch512 --max-steps 15500 $LOSS $LR loss.stitch_weight=2 &
+    wait
+    ;;
+  evaluate_from_skate512)  # L = 30 and 50 at noise x0, x1 and x1.5 for each run; the control is late_prior/skate512.json;
+    # then the noise ramp (results/noise_ramp.py) on skate512 and on the runs
+    for run in decay512 stitch512 wide512; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
+        --json $OUT/from_skate512/$run.json
+    done
+    python results/noise_ramp.py --checkpoint $OUT/late_prior/models/skate512 --data "$DATA" --ramps 0,4,8 \
+      --noise-scales 1,1.5 --json $OUT/from_skate512/noise_ramp_skate512.json
     ;;
   train)  # the three runs went side by side on the same 2 cores (nice -n 10); see results/README.md
     bin/train --config lafan1_cpu --workdir runs/cvae_noprior --data "$DATA" --no-progress $BEFORE  # the reproduction model
