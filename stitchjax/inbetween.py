@@ -261,7 +261,8 @@ def _keyframe(motion: Motion, which: str):
 
 
 def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samples: int = 1, seed=0,
-              search: int = 0, start_contacts=None, target_contacts=None, allow_extrapolation: bool = False) -> list:
+              search: int = 0, start_contacts=None, target_contacts=None, allow_extrapolation: bool = False, *,
+              noise_scale: float = 1.0, noise_ramp_steps: int = 0) -> list:
     """Generate ``num_samples`` transitions of ``length`` frames from ``start`` to ``target``.
 
     start: Motion whose LAST frame is the start keyframe (earlier frames, if any, are context: the one
@@ -271,6 +272,9 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
       try M latent pairs per wanted sample and keep the num_samples with the lowest stitching loss.
     start_contacts / target_contacts: (C,) foot contacts to use instead of measuring them.
     allow_extrapolation: a length beyond ``model.trained_max_length`` is an InbetweenError unless True.
+    noise_scale: factor on the latent noise (1: the model's own spread; 0: one motion, the prior's mean);
+    noise_ramp_steps: the noise rises from 0 at the frames next to the keyframes to full over this many
+      frames (0: full from the first frame, the paper's sampling; ``rollout.noise_ramp``).
     The keyframes must be on the model's skeleton, frame rate and units (see
     :func:`stitchjax.takes.inbetween_takes`, which brings takes from anywhere onto them).
     Returns a list of ``num_samples`` Motions of L + 2 frames (start keyframe, L generated frames,
@@ -296,7 +300,7 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     rotations, positions, _ = transitions_in_frame(
         model, start.rotations[-1:], start.positions[-1:], np.asarray(start_contacts)[None],
         target.rotations[:1], target.positions[:1], np.asarray(target_contacts)[None], length, num_samples,
-        seed, search)
+        seed, search, noise_scale=noise_scale, noise_ramp_steps=noise_ramp_steps)
     return [start.with_frames(rotations[0, s], positions[0, s]) for s in range(num_samples)]
 
 

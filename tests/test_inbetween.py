@@ -70,6 +70,21 @@ def test_samples_differ_and_end_exactly_on_the_keyframes(model, take):
     np.testing.assert_allclose(samples[0].positions[:, 1:], np.broadcast_to(take.positions[100, 1:], (LENGTH + 2, 21, 3)))
 
 
+def test_noise_scale_and_ramp_reach_the_animator_calls(model, take):
+    start, target = take[99:101], take[110:112]
+    still = inbetween.inbetween(model, start, target, LENGTH, num_samples=3, seed=0, noise_scale=0.0)
+    for s in still[1:]:  # no noise: one motion
+        np.testing.assert_array_equal(s.rotations, still[0].rotations)
+    plain = inbetween.inbetween(model, start, target, LENGTH, num_samples=3, seed=0)
+    ramped = inbetween.inbetween(model, start, target, LENGTH, num_samples=3, seed=0, noise_ramp_steps=2)
+    assert np.abs(_global(ramped[0]) - _global(ramped[1])).max() > 1e-3  # still diverse ...
+    assert np.abs(_global(ramped[0]) - _global(plain[0])).max() > 1e-3  # ... and not the paper's draw
+    clips = takes.inbetween_clip(model, take, 100, 110, length=LENGTH, num_samples=2, noise_scale=0.0)
+    np.testing.assert_array_equal(clips[0].rotations, clips[1].rotations)
+    with pytest.raises(inbetween.InbetweenError, match="noise_ramp_steps"):
+        inbetween.inbetween(model, start, target, LENGTH, num_samples=2, noise_ramp_steps=-1)
+
+
 def test_bfloat16_matmuls_give_nearby_transitions_that_still_end_on_the_keyframes(model, take):
     low = trained_model.with_matmul_dtype(model, "bfloat16")
     assert low.config.model.matmul_dtype == "bfloat16" and model.config.model.matmul_dtype == "float32"
@@ -214,3 +229,6 @@ def test_cli_errors_are_one_line(tiny_run, tmp_path):
     result = _cli("--checkpoint", tmp_path / "missing", "--bvh", source, "--start-frame", 1, "--end-frame", 9,
                   "--out", tmp_path)
     assert result.returncode == 2 and "does not exist" in result.stderr
+    result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 109,
+                  "--noise-ramp", -1, "--out", tmp_path)
+    assert result.returncode == 2 and "--noise-ramp -1" in result.stderr
