@@ -92,20 +92,27 @@ case "${1:-}" in
         --json $OUT/late_prior/$run.json
     done
     ;;
-  from_skate512)  # three continuations of late_prior/models/skate512 (step 12003) side by side at nice -n 10, to
-    # step 15500, each with the learning rate decaying fully: from 1e-4 (0.2 x, where skate512 stopped) linearly to
-    # 0.05 x at step 15000. decay512 changes nothing else (the control); wide512 trains on the posterior alone
-    # (loss.prior_sample_fraction=0) to step 13500, then with prior samples again at reconstruction weight 0.25;
-    # stitch512 raises the stitching weight to 2 (the feet slide most inside the stitch overlap)
+  from_skate512)  # three continuations of late_prior/models/skate512 (step 12003) side by side at nice -n 10, each with
+    # the learning rate decaying fully: from 1e-4 (0.2 x, where skate512 stopped) linearly to 0.05 x. decay512 changes
+    # nothing else (the control); wide512 trains on the posterior alone (loss.prior_sample_fraction=0) to step 13500,
+    # then with prior samples again at reconstruction weight 0.25; stitch512 raises the stitching weight to 2 (the
+    # feet slid most inside the stitch overlap). Started with the decay to end at step 15000; stopped by SIGTERM at
+    # steps 12895-12903 and resumed (same state: tests/test_train.py) with it ending at step 14500 instead, to leave
+    # time to evaluate (the learning rate stepped from 0.78 to 0.73 x 1e-4 there).
     FT="--config lafan1_cpu --data $DATA --no-progress"
     BASE=$OUT/late_prior/models/skate512
     LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=512"
-    LR="train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=12003 train.lr_decay_until_step=15000"
-    bin/train $FT --init-from $BASE --workdir runs/decay512 --max-steps 15500 $LOSS $LR &
-    ( bin/train $FT --init-from $BASE --workdir runs/wide512_f0 --max-steps 13500 $LOSS $LR loss.prior_sample_fraction=0
-      bin/train $FT --init-from runs/wide512_f0 --workdir runs/wide512 --max-steps 15500 $LOSS $LR \
+    LR="train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=12003"
+    FIRST="$LR train.lr_decay_until_step=15000"
+    THEN="$LR train.lr_decay_until_step=14500"
+    ( bin/train $FT --init-from $BASE --workdir runs/decay512 --max-steps 12895 $LOSS $FIRST
+      bin/train $FT --workdir runs/decay512 --max-steps 14500 $LOSS $THEN ) &
+    ( bin/train $FT --init-from $BASE --workdir runs/wide512_f0 --max-steps 12903 $LOSS $FIRST loss.prior_sample_fraction=0
+      bin/train $FT --workdir runs/wide512_f0 --max-steps 13500 $LOSS $THEN loss.prior_sample_fraction=0
+      bin/train $FT --init-from runs/wide512_f0 --workdir runs/wide512 --max-steps 14500 $LOSS $THEN \
         loss.prior_sample_reconstruction_weight=0.25 ) &
-    bin/train $FT --init-from $BASE --workdir runs/stitch512 --max-steps 15500 $LOSS $LR loss.stitch_weight=2 &
+    ( bin/train $FT --init-from $BASE --workdir runs/stitch512 --max-steps 12902 $LOSS $FIRST loss.stitch_weight=2
+      bin/train $FT --workdir runs/stitch512 --max-steps 14500 $LOSS $THEN loss.stitch_weight=2 ) &
     wait
     ;;
   evaluate_from_skate512)  # L = 30 and 50 at noise x0, x1 and x1.5 for each run; the control is late_prior/skate512.json;
