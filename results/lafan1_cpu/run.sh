@@ -123,6 +123,10 @@ case "${1:-}" in
     done
     python results/noise_ramp.py --checkpoint $OUT/late_prior/models/skate512 --data "$DATA" --ramps 0,4,8 \
       --noise-scales 1,1.5 --json $OUT/from_skate512/noise_ramp_skate512.json
+    python results/noise_ramp.py --checkpoint runs/decay512 --data "$DATA" --ramps 4,8 --noise-scales 1,1.5 \
+      --json $OUT/from_skate512/noise_ramp_decay512.json  # ramp 0 = decay512.json
+    python results/foot_slide_frames.py --checkpoint $OUT/late_prior/models/skate512 --data "$DATA" --length 30 \
+      --out $OUT/from_skate512/foot_slide_frames_skate512
     ;;
   train)  # the three runs went side by side on the same 2 cores (nice -n 10); see results/README.md
     bin/train --config lafan1_cpu --workdir runs/cvae_noprior --data "$DATA" --no-progress $BEFORE  # the reproduction model
