@@ -347,9 +347,9 @@ def noise_ramp(num_steps: int, ramp_steps: int) -> np.ndarray:
     frames come from the prior's mean and the samples part towards mid-transition, where the keyframes
     constrain the motion least. ramp_steps = 0: 1 everywhere (the paper's sampling). Not in the paper: it
     is an inference setting (measured in results/README.md, "Noise ramp")."""
+    if int(ramp_steps) != ramp_steps or ramp_steps < 0:  # a fraction would be truncated silently
+        raise ValueError(f"noise_ramp_steps must be a whole number of steps >= 0, got {ramp_steps}")
     ramp_steps = int(ramp_steps)
-    if ramp_steps < 0:
-        raise ValueError(f"noise_ramp_steps must be >= 0, got {ramp_steps}")
     if ramp_steps == 0:
         return np.ones((num_steps,), np.float32)
     return np.minimum(np.arange(num_steps, dtype=np.float32) / ramp_steps, 1.0)

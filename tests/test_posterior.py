@@ -271,6 +271,8 @@ def test_noise_ramp_factors():
     np.testing.assert_allclose(RO.noise_ramp(6, 4), [0.0, 0.25, 0.5, 0.75, 1.0, 1.0])
     with pytest.raises(ValueError, match="noise_ramp_steps"):
         RO.noise_ramp(5, -1)
+    with pytest.raises(ValueError, match="noise_ramp_steps"):
+        RO.noise_ramp(5, 2.5)
 
 
 def test_noise_ramp_puts_the_frames_next_to_the_keyframes_on_the_mean_path():
