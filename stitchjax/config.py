@@ -86,6 +86,9 @@ class ModelConfig:
     gamma_schedule: str = "direction"  # reason: paper: gamma rises from 0 at the generator's first frame
     # to 1 at the frame it targets, so n / (frames this direction makes); "transition" = n / (L + 1) for
     # both directions (reaches only ~0.57 at L = 48 with bidirectional stitching)
+    keyframe_velocity: str = "zero"  # reason: the paper gives keyframes as poses, so their root velocity
+    # input is 0; "mean" gives both keyframes the transition's mean root velocity, (target root - start
+    # root) / (L + 1), which the two poses and L determine (results/README.md: measured against "zero")
     time_to_target_input: bool = True  # reason: offset encoder gets frames-to-target / fps; without it
     # the generator cannot know when it must arrive (RMIB uses a time-to-arrival signal too)
     stitch_buffer: int = 4  # reason: K (paper leaves it open); 2K = 8 overlap frames, clipped to L//2
@@ -293,6 +296,7 @@ CHOICES = {
     ("model", "variance_blend"): ("std", "var"),
     ("model", "posterior"): ("next_frame", "none"),
     ("model", "gamma_schedule"): ("direction", "transition"),
+    ("model", "keyframe_velocity"): ("zero", "mean"),
     ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
     ("loss", "foot_skate_contacts"): ("truth", "height"),
     ("train", "scan_remat"): ("none", "dots", "nothing"),  # rollout.SCAN_REMAT has one policy each
@@ -357,6 +361,11 @@ def apply_overrides(config: Config, overrides) -> Config:
 def to_dict(config: Config) -> dict:
     """Plain JSON-ready dict (tuples become lists)."""
     return json.loads(json.dumps(dataclasses.asdict(config)))
+
+
+# Model fields a fine-tune (``--init-from``) may change: they change what the generators are fed, not what
+# their parameters are, so the parameters keep their meaning and the fine-tune adapts them.
+FINE_TUNABLE_MODEL_FIELDS = ("keyframe_velocity",)
 
 
 # What a config saved before a field existed meant: such a checkpoint restores as it was trained.

@@ -5,7 +5,7 @@ a fresh one.
   as `<step>.broken` (nothing is deleted) and metrics past the restored step are dropped. A saved run whose
   data / model / loss / phase config differs is refused (only train.* may change on resume).
 - Fine-tune (`init_from`): a new run folder starts from another run's newest state (same data, model and phase
-  config; loss.* and train.* may differ), its step, optimiser moments and key included.
+  config; loss.*, train.* and ``config.FINE_TUNABLE_MODEL_FIELDS`` may differ), its step, optimiser moments and key included.
 """
 from __future__ import annotations
 
@@ -68,9 +68,17 @@ def _saved_config(workdir) -> tuple[int, dict]:
     return step, saved
 
 
-def _differing_sections(saved: dict, config_json: dict, sections: tuple) -> list:
-    """The config sections among `sections` whose saved and current values differ."""
-    return [section for section in sections if saved.get(section) != config_json.get(section)]
+def _differing_sections(saved: dict, config_json: dict, sections: tuple, ignore: tuple = ()) -> list:
+    """The config sections among `sections` whose saved and current values differ; `ignore`: (section,
+    field) pairs left out of the comparison."""
+    def part(config, section):
+        values = dict(config.get(section) or {})
+        for ignored_section, field in ignore:
+            if ignored_section == section:
+                values.pop(field, None)
+        return values
+
+    return [section for section in sections if part(saved, section) != part(config_json, section)]
 
 
 def _check_same_run(config_json: dict, workdir: pathlib.Path, manager) -> None:
@@ -96,10 +104,12 @@ def state_from_run(config_json: dict, source: str | os.PathLike, abstract_state:
     _, saved = _saved_config(source)
     if not saved:
         raise ResumeError(f"--init-from {source}: no readable checkpoint (expected {source}/checkpoints/<step>)")
-    changed = _differing_sections(saved, config_json, ("data", "model", "phase"))
+    tunable = tuple(("model", field) for field in config_lib.FINE_TUNABLE_MODEL_FIELDS)
+    changed = _differing_sections(saved, config_json, ("data", "model", "phase"), ignore=tunable)
     if changed:
         raise ResumeError(f"--init-from {source}: its {', '.join(changed)} config differs from this one; "
-                          "only loss.* and train.* may change when fine-tuning")
+                          "only loss.*, train.* and model." + ", model.".join(config_lib.FINE_TUNABLE_MODEL_FIELDS)
+                          + " may change when fine-tuning")
     manager = checkpoints.open_manager(source, read_only=True)
     try:
         state, _, _, step = checkpoints.restore_newest_good(manager, abstract_state)

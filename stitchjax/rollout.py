@@ -47,7 +47,7 @@ from stitchjax import scan_gradients
 from stitchjax import skeleton as skel
 
 __all__ = ["rollout", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule", "interpolation_weight",
-           "aligning_step", "stitch", "direction_frames", "next_frame_states", "correlated_noise",
+           "aligning_step", "stitch", "keyframe_velocity", "keyframe_states", "direction_frames", "next_frame_states", "correlated_noise",
            "prior_sample_flags", "GAUSSIAN_KEYS"]
 
 GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend", "mu_posterior",
@@ -160,7 +160,7 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
 
     carry: (forward LSTM carry, backward LSTM carry, latest forward frame, latest backward frame);
     i: () step index; eps_i: (2, latent) noise; plan: {"length", "n_forward", "n_backward", "start",
-    "target"} (keyframes as frame dicts), optionally "use_prior" (see :func:`rollout`); probes_i / truth_i:
+    "target"} (keyframes as frame dicts, :func:`keyframe_states`: the target in reversed time), optionally "use_prior" (see :func:`rollout`); probes_i / truth_i:
     this step's probes and posterior inputs (forward, backward) or None. Returns (carry, outputs) with "forward" / "backward" frame dicts plus
     their Gaussians, and "inputs" (recorded matmul inputs, None unless probed).
     """
@@ -174,7 +174,7 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
     if aligned:
         f_target, f_dist = _reverse(bwd), length + 1 - 2 * i
     else:
-        f_target, f_dist = plan["target"], length + 1 - i
+        f_target, f_dist = _reverse(plan["target"]), length + 1 - i
     out = {"inputs": {}}
 
     def direction_step(name, carry_d, frame, target, distance, eps, truth):
@@ -194,7 +194,7 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
         if aligned:
             b_target, b_dist = _reverse(fwd), length - 2 * i
         else:
-            b_target, b_dist = plan["start"], length + 1 - i
+            b_target, b_dist = _reverse(plan["start"]), length + 1 - i
         bwd_carry, bwd = direction_step("backward", bwd_carry, bwd, b_target, b_dist, eps_i[1], truth_bwd)
     return (fwd_carry, bwd_carry, fwd, bwd), out
 
@@ -278,7 +278,7 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         raise ValueError("ground_truth given but model.posterior='none': the model has no posterior")
     truth = (None if ground_truth is None else
              (ground_truth["forward"], ground_truth.get("backward", ground_truth["forward"])))
-    start_frame, target_frame = _keyframe_state(start, dtype), _keyframe_state(target, dtype)
+    start_frame, target_frame = keyframe_states(config, start, target, length)
     plan = {"length": length, "n_forward": n_fwd, "n_backward": n_bwd, "start": start_frame, "target": target_frame}
     if use_prior is not None:
         plan["use_prior"] = jnp.asarray(use_prior, bool)
@@ -320,10 +320,28 @@ SCAN_REMAT = {
 }
 
 
-def _keyframe_state(keyframe: dict, dtype) -> dict:
-    """A keyframe as a generator frame: its rotations, root, contacts and zero root velocity."""
-    return {"rotations": keyframe["rotations"], "root": keyframe["root_position"],
-            "velocity": jnp.zeros((3,), dtype), "contacts": keyframe["contacts"]}
+def keyframe_velocity(config, start_root, target_root, length):
+    """(3,) scaled root velocity both keyframes are given (``model.keyframe_velocity``), in forward time.
+
+    "zero": 0, the paper's poses alone. "mean": the transition's mean root velocity,
+    (target root - start root) / (L + 1) / data.velocity_scale, which the two keyframes and L determine.
+    """
+    if config.model.keyframe_velocity == "zero":
+        return jnp.zeros_like(start_root)
+    steps = (jnp.asarray(length) + 1).astype(start_root.dtype)
+    return (target_root - start_root) / (steps * config.data.velocity_scale)
+
+
+def keyframe_states(config, start: dict, target: dict, length) -> tuple[dict, dict]:
+    """The keyframes as generator frames (rotations, root, contacts, root velocity): the start keyframe in
+    forward time and the target keyframe in the backward generator's reversed time (velocity negated)."""
+    velocity = keyframe_velocity(config, start["root_position"], target["root_position"], length)
+
+    def frame(keyframe, v):
+        return {"rotations": keyframe["rotations"], "root": keyframe["root_position"], "velocity": v,
+                "contacts": keyframe["contacts"]}
+
+    return frame(start, velocity), frame(target, -velocity)
 
 
 def _latent_noise(key, noise, shape: tuple, dtype, noise_scale, noise_correlation=0.0, noise_ramp_steps=0):

@@ -117,6 +117,28 @@ def test_each_ablation_runs_and_changes_the_output(setup, switch):
         assert not bool(out["overlap"]["mask"].any())
 
 
+def test_keyframe_velocity_is_the_transitions_mean_and_reversed_for_the_target(setup):
+    config, params, phase_params, batch, fn = setup
+    mean = tiny_config("model.keyframe_velocity=mean")
+    start = {"rotations": batch["rotations"][0, 0], "root_position": batch["root_positions"][0, 0],
+             "contacts": batch["contacts"][0, 0]}
+    target = {"rotations": batch["rotations"][0, 9], "root_position": batch["root_positions"][0, 9],
+              "contacts": batch["contacts"][0, 9]}
+    first, last = RO.keyframe_states(mean, start, target, jnp.int32(8))
+    expected = (batch["root_positions"][0, 9] - batch["root_positions"][0, 0]) / (9 * config.data.velocity_scale)
+    np.testing.assert_allclose(first["velocity"], expected, rtol=1e-6)
+    np.testing.assert_allclose(last["velocity"], -expected, rtol=1e-6)  # the backward generator's time
+    assert float(jnp.abs(expected).max()) > 1e-3
+    zero_first, zero_last = RO.keyframe_states(config, start, target, jnp.int32(8))
+    assert not np.any(np.asarray(zero_first["velocity"])) and not np.any(np.asarray(zero_last["velocity"]))
+    key, length = jax.random.PRNGKey(1), jnp.int32(8)
+    fed = jax.jit(lambda p, pp, b, k, n: RO.rollout_batch(p, pp, b, k, mean, n, posterior=False))(
+        params, phase_params, batch, key, length)
+    paper = fn(params, phase_params, batch, key, length)
+    np.testing.assert_array_equal(fed["rotations"][:, 9], batch["rotations"][:, 9])  # keyframes stay exact
+    assert float(jnp.abs(fed["forward"]["rotations"][:, 0] - paper["forward"]["rotations"][:, 0]).max()) > 1e-6
+
+
 def test_phase_network_modulates_the_decoder(setup):
     config, params, phase_params, batch, fn = setup
     with_phase = fn(params, phase_params, batch, jax.random.PRNGKey(1), jnp.int32(6))

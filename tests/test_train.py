@@ -141,6 +141,8 @@ def test_init_from_starts_a_new_run_from_another_runs_state(dataset, tmp_path):
     checkpoints.close(manager)
     assert saved_config["loss"]["kl_weight"] == 0.5
     assert train.train(tuned_config, tmp_path / "tuned", max_steps=5, **kwargs)["start_step"] == 4  # resumes
+    fed = tiny_config("model.keyframe_velocity=mean")  # what the generators are fed: allowed too
+    assert train.train(fed, tmp_path / "fed", max_steps=5, init_from=tmp_path / "base", **kwargs)["start_step"] == 4
 
 
 def test_dataset_registry_has_every_allowed_name_and_its_facts():

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|train|train_long|finetune|evaluate|evaluate_long|
+# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -127,6 +127,23 @@ case "${1:-}" in
       --json $OUT/from_skate512/noise_ramp_decay512.json  # ramp 0 = decay512.json
     python results/foot_slide_frames.py --checkpoint $OUT/late_prior/models/skate512 --data "$DATA" --length 30 \
       --out $OUT/from_skate512/foot_slide_frames_skate512
+    ;;
+  from_decay512)  # three continuations of from_skate512/models/decay512 (step 14500) side by side at nice -n 10, each
+    # with the learning rate from 5e-5 down to 2.5e-5 (where decay512 stopped) at step 16600. more512 changes nothing
+    # (the control); keyvel512 gives both keyframes the transition's mean root velocity (model.keyframe_velocity=mean);
+    # keyvel_wide512 does too, on the posterior alone (loss.prior_sample_fraction=0) to step 15500, then with prior
+    # samples again at reconstruction weight 0.25 (wide512's recipe)
+    FT="--config lafan1_cpu --data $DATA --no-progress"
+    BASE=$OUT/from_skate512/models/decay512
+    LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=512"
+    LR="train.learning_rate=5e-5 train.lr_decay_to=0.5 train.lr_decay_from_step=14500 train.lr_decay_until_step=16600"
+    bin/train $FT --init-from $BASE --workdir runs/more512 --max-steps 16600 $LOSS $LR &
+    bin/train $FT --init-from $BASE --workdir runs/keyvel512 --max-steps 16600 $LOSS $LR model.keyframe_velocity=mean &
+    ( bin/train $FT --init-from $BASE --workdir runs/keyvel_wide512_f0 --max-steps 15500 $LOSS $LR \
+        model.keyframe_velocity=mean loss.prior_sample_fraction=0
+      bin/train $FT --init-from runs/keyvel_wide512_f0 --workdir runs/keyvel_wide512 --max-steps 16600 $LOSS $LR \
+        model.keyframe_velocity=mean loss.prior_sample_reconstruction_weight=0.25 ) &
+    wait
     ;;
   train)  # the three runs went side by side on the same 2 cores (nice -n 10); see results/README.md
     bin/train --config lafan1_cpu --workdir runs/cvae_noprior --data "$DATA" --no-progress $BEFORE  # the reproduction model
