@@ -142,6 +142,9 @@ class LossConfig:
     # only): a sample drawn from the prior does not step where the ground truth steps. Measured on lafan1_cpu
     # (results/README.md, 6000 steps each from one step-2000 state): "height" at weight 32 slides 7-13 % less
     # than "truth" at 8, with 18 % less APD
+    foot_velocity_weight: float = 0.0  # reason: not in the paper (0 = off): > 0 adds losses.foot_velocity_loss,
+    # the feet's movement per frame against the ground truth's. With the foot-skate term at 512 alone the feet
+    # jumped 8.4 cm in the first generated frame (ground truth 2.6; results/README.md, from_decay512)
     stitch_weight: float = 0.5  # paper alpha2 (0 = "no stitching loss" ablation)
     fk_weight: float = 0.5  # paper alpha3
     disc_weight: float = 0.1  # paper alpha4 (scales L_D in the discriminator update)

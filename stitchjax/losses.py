@@ -4,7 +4,8 @@ Overall (paper Eq. 9, weights in ``config.loss``)::
 
     L = L_state + 1.0 L_kl + 0.5 L_stitch + 0.5 L_fk + 0.1 L_D + 0.1 L_G
 
-Optional, not in the paper: ``loss.foot_skate_weight`` x :func:`foot_skate_loss`.
+Optional, not in the paper: ``loss.foot_skate_weight`` x :func:`foot_skate_loss` and
+``loss.foot_velocity_weight`` x :func:`foot_velocity_loss`.
 
 L_kl: with ``model.posterior="next_frame"`` KL(q || p) of the posterior against the latent-interpolation
 prior (``loss.free_bits``, warm-up ``loss.kl_warmup_steps``, optional ``loss.prior_kl_weight`` KL(p || N(0, I)));
@@ -143,6 +144,22 @@ def foot_skate_loss(global_positions, contacts, mask, feet, position_scale: floa
     return masked_mean(_norm1(weighted, reduction, (-2, -1)), valid)
 
 
+def foot_velocity_loss(global_positions, truth_positions, mask, feet, position_scale: float, reduction: str = "sum"):
+    """Foot velocity: L1 between the generated and the ground-truth movement of the contact joints from frame
+    t - 1 to frame t, / position_scale, mean over valid frame pairs (not in the paper). The foot-skate term
+    leaves a foot in the air free to move any distance in one frame; this term holds every foot to the
+    ground truth's speed, next to the keyframes too.
+
+    global_positions, truth_positions (..., T, J, 3); mask (..., T) valid frames; feet: joint indices.
+    """
+    feet = list(feet)
+    generated = global_positions[..., feet, :]
+    truth = truth_positions[..., feet, :]
+    step = (generated[..., 1:, :, :] - generated[..., :-1, :, :]) - (truth[..., 1:, :, :] - truth[..., :-1, :, :])
+    valid = mask[..., 1:] & mask[..., :-1]
+    return masked_mean(_norm1(step / position_scale, reduction, (-2, -1)), valid)
+
+
 def foot_height_contacts(global_positions, truth_positions, mask, feet, up_axis: int = 1,
                          threshold: float = FOOT_HEIGHT_THRESHOLD_CM):
     """Soft contacts of the generated feet from their height, as the foot-slide metric weighs them, shifted
@@ -183,6 +200,17 @@ def _foot_skate_term(out, batch, loss_config, data_config):
     contacts = foot_height_contacts(positions, batch["global_positions"][:, :t], mask, feet, up_axis)
     return foot_skate_loss(positions, contacts, mask, feet, data_config.position_scale, loss_config.reduction,
                            up_axis=up_axis)
+
+
+def _foot_velocity_term(out, batch, loss_config, data_config):
+    """loss.foot_velocity_weight's term on the stitched motion `out`, with the dataset's feet."""
+    feet = datasets.get(data_config.dataset).feet
+    if feet is None:
+        raise ValueError(f"loss.foot_velocity_weight needs a dataset with fixed feet; {data_config.dataset!r} "
+                         "reads them from its files (set loss.foot_velocity_weight=0)")
+    positions = out["global_positions"]
+    return foot_velocity_loss(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"], feet,
+                              data_config.position_scale, loss_config.reduction)
 
 
 def lsgan_generator_loss(fake_scores, mask):
@@ -323,11 +351,14 @@ def generator_objective(params, out, sampled, batch, length, loss_config, model_
     terms.update(adversarial_generator_terms(params, sampled, lc, model_config, data_config))
     if lc.foot_skate_weight:
         terms["foot_skate"] = _foot_skate_term(out, batch, lc, data_config)
+    if lc.foot_velocity_weight:
+        terms["foot_velocity"] = _foot_velocity_term(out, batch, lc, data_config)
     kl_weight = lc.kl_weight * kl_scale
     prior_kl = lc.prior_kl_weight * terms["kl_prior"] if model_config.posterior != "none" else 0.0
     total = (terms["state"] + kl_weight * terms.pop("kl_penalty") + prior_kl + lc.stitch_weight * terms["stitch"]
              + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"]
-             + lc.foot_skate_weight * terms.get("foot_skate", 0.0))
+             + lc.foot_skate_weight * terms.get("foot_skate", 0.0)
+             + lc.foot_velocity_weight * terms.get("foot_velocity", 0.0))
     for name in directions:
         terms.pop(f"kl_penalty_{name}")
     fake = disc_features(sampled["global_positions"], sampled["root_positions"], data_config)

@@ -39,12 +39,27 @@ from stitchjax import features
 from stitchjax.config import CHOICES
 
 __all__ = [
-    "MATMUL_DTYPES", "matmul", "kernel_matmul", "Dense", "LSTMCell", "MLP", "MoEDense", "Generator",
+    "MATMUL_DTYPES", "elu", "matmul", "kernel_matmul", "Dense", "LSTMCell", "MLP", "MoEDense", "Generator",
     "Posterior", "LatentMLP", "decode", "sample_latent", "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry", "blend_gaussians",
     "disc_feature_dim", "phase_dim", "generator_input_dims",
 ]
 
-_ACTIVATION_FUNCTIONS = {"elu": nn.elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
+@jax.custom_jvp
+def elu(x):
+    """ELU (alpha 1), the values of ``nn.elu``; its derivative is formed from the output y (1 where y > 0,
+    else y + 1 = exp(x)), so the backward pass keeps one array per layer instead of x's exponential and two
+    masks (benchmarks/README.md, copies and stacking per step)."""
+    return jnp.where(x > 0, x, jnp.expm1(jnp.minimum(x, 0)))
+
+
+@elu.defjvp
+def _elu_jvp(primals, tangents):
+    (x,), (dx,) = primals, tangents
+    y = elu(x)
+    return y, dx * jnp.where(y > 0, 1, y + 1).astype(y.dtype)
+
+
+_ACTIVATION_FUNCTIONS = {"elu": elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
                          "leaky_relu": lambda x: nn.leaky_relu(x, 0.2), "tanh": jnp.tanh}
 # The allowed names are config.CHOICES' (one list); every one of them must have a function here.
 _ACTIVATIONS = {name: _ACTIVATION_FUNCTIONS[name] for name in CHOICES[("model", "activation")]}

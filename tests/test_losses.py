@@ -219,3 +219,26 @@ def test_foot_skate_weight_adds_its_term_to_the_generator_objective(setup, conta
                                             C.apply_overrides(config, ["loss.foot_skate_weight=0"]), jnp.int32(8))
     assert "foot_skate" not in base_terms
     np.testing.assert_allclose(total - base, lc.foot_skate_weight * terms["foot_skate"], rtol=1e-4)
+
+
+def test_foot_velocity_loss_counts_feet_that_move_unlike_the_ground_truth_in_the_air_too():
+    feet = S.LAFAN1_FEET
+    truth = jnp.zeros((1, 4, J, 3)).at[0, :, feet[0], 0].set(jnp.arange(4.0) * 2.0)  # LeftFoot walks 2 cm/frame
+    mask = jnp.ones((1, 4), bool)
+    assert float(LS.foot_velocity_loss(truth, truth, mask, feet, 100.0)) == 0.0
+    shifted = truth.at[..., 2].add(50.0)  # the same movement elsewhere: the term reads movement, not position
+    assert float(LS.foot_velocity_loss(shifted, truth, mask, feet, 100.0)) == 0.0
+    jump = truth.at[0, 1:, feet[1], 1].add(30.0)  # LeftToe jumps 30 cm up into frame 1, in the air after
+    np.testing.assert_allclose(LS.foot_velocity_loss(jump, truth, mask, feet, 100.0), 0.3 / 3, rtol=1e-6)
+    assert float(LS.foot_velocity_loss(jump, truth, mask.at[0, 1].set(False), feet, 100.0)) == 0.0  # masked
+
+
+def test_foot_velocity_weight_adds_its_term_to_the_generator_objective(setup):
+    config, params, phase_params, batch = setup
+    config = C.apply_overrides(config, ["loss.foot_velocity_weight=2.0"])
+    total, terms, _ = LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), config, jnp.int32(8))
+    assert float(terms["foot_velocity"]) > 0  # a random rollout does not move its feet as the ground truth does
+    base, base_terms, _ = LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1),
+                                            C.apply_overrides(config, ["loss.foot_velocity_weight=0"]), jnp.int32(8))
+    assert "foot_velocity" not in base_terms
+    np.testing.assert_allclose(total - base, 2.0 * terms["foot_velocity"], rtol=1e-4)

@@ -131,18 +131,17 @@ case "${1:-}" in
   from_decay512)  # three continuations of from_skate512/models/decay512 (step 14500) side by side at nice -n 10, each
     # with the learning rate from 5e-5 down to 2.5e-5 (where decay512 stopped) at step 16600. more512 changes nothing
     # (the control); keyvel512 gives both keyframes the transition's mean root velocity (model.keyframe_velocity=mean);
-    # keyvel_wide512 does too, on the posterior alone (loss.prior_sample_fraction=0) to step 15500, then with prior
-    # samples again at reconstruction weight 0.25 (wide512's recipe)
+    # keyvel_wide512 was to do too, on the posterior alone to step 15500, then with prior samples at reconstruction
+    # weight 0.25 (wide512's recipe); it was stopped at step 14962 for fvel32, which adds the foot velocity term
+    # (loss.foot_velocity_weight=32: about the foot-skate term's share of the loss) once the feet were seen to jump in the first generated frame
+    # (results/error_frames.py); fvel32 started 500 steps after the other two
     FT="--config lafan1_cpu --data $DATA --no-progress"
     BASE=$OUT/from_skate512/models/decay512
     LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=512"
     LR="train.learning_rate=5e-5 train.lr_decay_to=0.5 train.lr_decay_from_step=14500 train.lr_decay_until_step=16600"
     bin/train $FT --init-from $BASE --workdir runs/more512 --max-steps 16600 $LOSS $LR &
     bin/train $FT --init-from $BASE --workdir runs/keyvel512 --max-steps 16600 $LOSS $LR model.keyframe_velocity=mean &
-    ( bin/train $FT --init-from $BASE --workdir runs/keyvel_wide512_f0 --max-steps 15500 $LOSS $LR \
-        model.keyframe_velocity=mean loss.prior_sample_fraction=0
-      bin/train $FT --init-from runs/keyvel_wide512_f0 --workdir runs/keyvel_wide512 --max-steps 16600 $LOSS $LR \
-        model.keyframe_velocity=mean loss.prior_sample_reconstruction_weight=0.25 ) &
+    bin/train $FT --init-from $BASE --workdir runs/fvel32 --max-steps 16600 $LOSS $LR loss.foot_velocity_weight=32 &
     wait
     ;;
   train)  # the three runs went side by side on the same 2 cores (nice -n 10); see results/README.md

@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""Where in a transition the position error is: the protocol's joint error (m) per generated frame, for all
+joints and for the root alone.
+
+    python results/error_frames.py --checkpoint results/lafan1_cpu/from_skate512/models/decay512 \
+        --data ../shared/data/lafan1 --length 30 --out results/lafan1_cpu/from_decay512/error_frames_decay512
+
+For the 376 subject5 test windows, the protocol's start keyframe and transitions of ``--length`` frames:
+the model at noise x0 (the prior's mean path) and x1, and interpolation. Entry t is generated frame t + 1;
+the mean over t of the "all joints" curve is the protocol's ADE, its last entry SLDE
+(``metrics.displacement_per_window`` on one frame). Writes ``error_L<L>.json`` and ``error_L<L>.png``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import sys
+
+import numpy as np
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from stitchjax import evaluate, lafan1, metrics, rollout, trained_model  # noqa: E402
+from stitchjax.skeleton import forward_kinematics  # noqa: E402
+
+
+def per_frame_error(positions, truth, metres_per_unit: float) -> np.ndarray:
+    """positions (S, B, T, J, 3) and truth (B, T, J, 3) global -> (T,) mean joint distance per frame (m)."""
+    return np.stack([metrics.displacement_per_window(positions[:, :, t:t + 1], truth[:, t:t + 1]).mean()
+                     for t in range(truth.shape[1])]) * metres_per_unit
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--checkpoint", required=True, help="run folder of bin/train (or a committed model)")
+    parser.add_argument("--data", required=True, help="folder of the LAFAN1 BVH files")
+    parser.add_argument("--length", type=int, default=30, help="transition length L (default 30)")
+    parser.add_argument("--samples", type=int, default=4, help="samples per window at noise x1 (default 4)")
+    parser.add_argument("--out", required=True, help="folder for error_L<L>.json / .png")
+    args = parser.parse_args(argv)
+    model = trained_model.load_model(args.checkpoint)
+    windows = lafan1.test_windows(args.data)
+    start, length = evaluate.START_FRAME, args.length
+    parents = tuple(int(p) for p in windows.skeleton.parents)
+    _, gt = forward_kinematics(np.asarray(windows.rotations, np.float64), np.asarray(windows.positions, np.float64),
+                               parents)
+    truth = gt[:, start + 1:start + length + 1]
+    methods = {"model noise x0": (evaluate.model_method(model, noise_scale=0.0), 1),
+               "model noise x1": (evaluate.model_method(model), args.samples),
+               "interpolation": (evaluate.interpolation_method, 1)}
+    curves = {}
+    for name, (method, samples) in methods.items():
+        rotations, positions = method(windows, start, length, samples, 0)
+        _, p = forward_kinematics(np.asarray(rotations, np.float64), np.asarray(positions, np.float64), parents)
+        curves[name] = per_frame_error(p, truth, metrics.LAFAN1_METRES_PER_UNIT)
+        curves[name + ", root"] = per_frame_error(p[..., :1, :], truth[..., :1, :], metrics.LAFAN1_METRES_PER_UNIT)
+
+    print("frame " + "".join(f"{name:>22}" for name in curves))
+    for t in range(length):
+        print(f"{t + 1:5d} " + "".join(f"{c[t]:22.4f}" for c in curves.values()))
+    print("mean  " + "".join(f"{c.mean():22.4f}" for c in curves.values()))
+    out = pathlib.Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = out / f"error_L{length}"
+    stem.with_suffix(".json").write_text(json.dumps(
+        {"checkpoint": str(args.checkpoint), "length": length, "windows": int(len(windows.rotations)),
+         "samples_noise1": args.samples, "units": "m, entry t = generated frame t + 1",
+         "curves": {k: [round(float(x), 5) for x in v] for k, v in curves.items()}}, indent=1) + "\n")
+    import matplotlib  # reason: only for the figure
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    for name, curve in curves.items():
+        ax.plot(np.arange(1, length + 1), curve, label=name, linestyle="--" if name.endswith("root") else "-")
+    h, k, _, _ = (int(x) for x in rollout.schedule(model.config, length))
+    ax.axvspan(h - k + 1, h + k, color="grey", alpha=0.15, label=f"stitch overlap (frames {h - k + 1}-{h + k})")
+    ax.set_xlabel("generated frame")
+    ax.set_ylabel("joint position error (m)")
+    ax.set_title(f"Error along the transition, L = {length}, {len(windows.rotations)} windows")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(stem.with_suffix(".png"), dpi=120)
+    print(f"wrote {stem}.json and {stem}.png")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
