@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Where in a transition the position error is: the protocol's joint error (m) per generated frame, for all
-joints and for the root alone.
+joints, the root alone and the four foot joints; and how far the feet move in the first and the last step
+(from the start keyframe into frame 1, from frame L into the target keyframe).
 
     python results/error_frames.py --checkpoint results/lafan1_cpu/from_skate512/models/decay512 \
         --data ../shared/data/lafan1 --length 30 --out results/lafan1_cpu/from_decay512/error_frames_decay512
@@ -8,7 +9,9 @@ joints and for the root alone.
 For the 376 subject5 test windows, the protocol's start keyframe and transitions of ``--length`` frames:
 the model at noise x0 (the prior's mean path) and x1, and interpolation. Entry t is generated frame t + 1;
 the mean over t of the "all joints" curve is the protocol's ADE, its last entry SLDE
-(``metrics.displacement_per_window`` on one frame). Writes ``error_L<L>.json`` and ``error_L<L>.png``.
+(``metrics.displacement_per_window`` on one frame). Foot movement: the horizontal distance (cm) each foot
+joint moves in that step, averaged over joints, windows and samples; the ground truth's beside it. Writes
+``error_L<L>.json`` and ``error_L<L>.png``.
 """
 from __future__ import annotations
 
@@ -22,7 +25,7 @@ import numpy as np
 REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from stitchjax import evaluate, lafan1, metrics, rollout, trained_model  # noqa: E402
+from stitchjax import evaluate, lafan1, metrics, rollout, skeleton, trained_model  # noqa: E402
 from stitchjax.skeleton import forward_kinematics  # noqa: E402
 
 
@@ -30,6 +33,18 @@ def per_frame_error(positions, truth, metres_per_unit: float) -> np.ndarray:
     """positions (S, B, T, J, 3) and truth (B, T, J, 3) global -> (T,) mean joint distance per frame (m)."""
     return np.stack([metrics.displacement_per_window(positions[:, :, t:t + 1], truth[:, t:t + 1]).mean()
                      for t in range(truth.shape[1])]) * metres_per_unit
+
+
+def keyframe_steps(positions, first_key, last_key, feet, up_axis: int = 1) -> tuple[float, float]:
+    """positions (S, B, L, J, 3) generated frames, first_key / last_key (B, J, 3) the keyframes -> mean
+    horizontal distance (data units) the feet move from the start keyframe into frame 1 and from frame L
+    into the target keyframe."""
+    horizontal = [axis for axis in range(3) if axis != up_axis]
+
+    def moved(a, b):
+        return float(np.linalg.norm((a - b)[..., list(feet), :][..., horizontal], axis=-1).mean())
+
+    return moved(positions[:, :, 0], first_key[None]), moved(last_key[None], positions[:, :, -1])
 
 
 def main(argv=None) -> int:
@@ -47,6 +62,9 @@ def main(argv=None) -> int:
     _, gt = forward_kinematics(np.asarray(windows.rotations, np.float64), np.asarray(windows.positions, np.float64),
                                parents)
     truth = gt[:, start + 1:start + length + 1]
+    feet = list(skeleton.LAFAN1_FEET)
+    first_key, last_key = gt[:, start], gt[:, start + length + 1]
+    steps = {"ground truth": keyframe_steps(truth[None], first_key, last_key, feet)}
     methods = {"model noise x0": (evaluate.model_method(model, noise_scale=0.0), 1),
                "model noise x1": (evaluate.model_method(model), args.samples),
                "interpolation": (evaluate.interpolation_method, 1)}
@@ -56,24 +74,34 @@ def main(argv=None) -> int:
         _, p = forward_kinematics(np.asarray(rotations, np.float64), np.asarray(positions, np.float64), parents)
         curves[name] = per_frame_error(p, truth, metrics.LAFAN1_METRES_PER_UNIT)
         curves[name + ", root"] = per_frame_error(p[..., :1, :], truth[..., :1, :], metrics.LAFAN1_METRES_PER_UNIT)
+        curves[name + ", feet"] = per_frame_error(p[..., feet, :], truth[..., feet, :], metrics.LAFAN1_METRES_PER_UNIT)
+        steps[name] = keyframe_steps(p, first_key, last_key, feet)
 
     print("frame " + "".join(f"{name:>22}" for name in curves))
     for t in range(length):
         print(f"{t + 1:5d} " + "".join(f"{c[t]:22.4f}" for c in curves.values()))
     print("mean  " + "".join(f"{c.mean():22.4f}" for c in curves.values()))
+    print("horizontal foot movement (cm): start keyframe -> frame 1, frame L -> target keyframe")
+    for name, (first, last) in steps.items():
+        print(f"  {name:<16} {first:6.2f} {last:6.2f}")
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     stem = out / f"error_L{length}"
     stem.with_suffix(".json").write_text(json.dumps(
         {"checkpoint": str(args.checkpoint), "length": length, "windows": int(len(windows.rotations)),
          "samples_noise1": args.samples, "units": "m, entry t = generated frame t + 1",
-         "curves": {k: [round(float(x), 5) for x in v] for k, v in curves.items()}}, indent=1) + "\n")
+         "curves": {k: [round(float(x), 5) for x in v] for k, v in curves.items()},
+         "foot_movement_cm": {"units": "cm, horizontal, mean over the 4 foot joints",
+                              "start_keyframe_to_frame_1": {k: round(v[0], 3) for k, v in steps.items()},
+                              "frame_L_to_target_keyframe": {k: round(v[1], 3) for k, v in steps.items()}}},
+        indent=1) + "\n")
     import matplotlib  # reason: only for the figure
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(7, 3.5))
     for name, curve in curves.items():
-        ax.plot(np.arange(1, length + 1), curve, label=name, linestyle="--" if name.endswith("root") else "-")
+        style = "--" if name.endswith("root") else ":" if name.endswith("feet") else "-"
+        ax.plot(np.arange(1, length + 1), curve, label=name, linestyle=style)
     h, k, _, _ = (int(x) for x in rollout.schedule(model.config, length))
     ax.axvspan(h - k + 1, h + k, color="grey", alpha=0.15, label=f"stitch overlap (frames {h - k + 1}-{h + k})")
     ax.set_xlabel("generated frame")
