@@ -174,3 +174,16 @@ def test_generator_matmul_dtype_keeps_parameters_and_changes_outputs_slightly():
         assert out_low[key].dtype == jnp.float32
         difference = np.abs(np.asarray(out_low[key]) - np.asarray(out[key]))
         assert 0 < difference.max() < 0.05 * np.abs(np.asarray(out[key])).max() + 1e-3
+
+
+def test_elu_has_flax_values_and_gradients_formed_from_its_output():
+    import flax.linen as nn
+
+    x = jnp.concatenate([jnp.linspace(-8.0, 8.0, 101), jnp.zeros(1)])
+    np.testing.assert_array_equal(N.elu(x), nn.elu(x))
+    ours = jax.grad(lambda v: jnp.sum(jnp.sin(N.elu(v))))(x)
+    flax_ = jax.grad(lambda v: jnp.sum(jnp.sin(nn.elu(v))))(x)
+    np.testing.assert_allclose(ours, flax_, rtol=1e-6, atol=1e-7)
+    slopes = jax.vmap(jax.grad(N.elu))(x)  # 1 for x >= 0 here (x = 0 included, as nn.elu), exp(x) below
+    np.testing.assert_allclose(slopes, np.where(np.asarray(x) > 0, 1.0, np.exp(np.asarray(x))), rtol=1e-6)
+    np.testing.assert_allclose(jax.jvp(N.elu, (x,), (jnp.ones_like(x),))[1], slopes, rtol=1e-6)  # forward mode
