@@ -144,6 +144,19 @@ case "${1:-}" in
     bin/train $FT --init-from $BASE --workdir runs/fvel32 --max-steps 16600 $LOSS $LR loss.foot_velocity_weight=32 &
     wait
     ;;
+  evaluate_from_decay512)  # L = 30 and 50 at noise x0, x1 and x1.5 for each run (the start, decay512, is
+    # from_skate512/decay512.json), and where the error is along the transition (results/error_frames.py)
+    for run in more512 keyvel512 fvel32; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
+        --json $OUT/from_decay512/$run.json
+      python results/error_frames.py --checkpoint runs/$run --data "$DATA" --length 30 \
+        --out $OUT/from_decay512/error_frames_$run
+    done
+    for run in decay512 height32; do  # the same for the start and for the reproduction model (scratch/height32)
+      python results/error_frames.py --checkpoint $OUT/*/models/$run --data "$DATA" --length 30 \
+        --out $OUT/from_decay512/error_frames_$run
+    done
+    ;;
   train)  # the three runs went side by side on the same 2 cores (nice -n 10); see results/README.md
     bin/train --config lafan1_cpu --workdir runs/cvae_noprior --data "$DATA" --no-progress $BEFORE  # the reproduction model
     bin/train --config lafan1_cpu --workdir runs/none --data "$DATA" --no-progress $BEFORE model.posterior=none
