@@ -141,7 +141,9 @@ class LossConfig:
     # itself when it is near the ground, weighted as the foot-slide metric weighs it (horizontal movement
     # only): a sample drawn from the prior does not step where the ground truth steps. Measured on lafan1_cpu
     # (results/README.md, 6000 steps each from one step-2000 state): "height" at weight 32 slides 7-13 % less
-    # than "truth" at 8, with 18 % less APD
+    # than "truth" at 8, with 18 % less APD. "height_either": a movement is weighed by the foot's height at
+    # either end, so a foot in the air cannot jump onto the ground at no cost (at 512 "height" let the feet
+    # jump 8.4 cm into the first generated frame: results/README.md, from_decay512)
     foot_velocity_weight: float = 0.0  # reason: not in the paper (0 = off): > 0 adds losses.foot_velocity_loss,
     # the feet's movement per frame against the ground truth's. With the foot-skate term at 512 alone the feet
     # jumped 8.4 cm in the first generated frame (ground truth 2.6; results/README.md, from_decay512)
@@ -301,7 +303,7 @@ CHOICES = {
     ("model", "gamma_schedule"): ("direction", "transition"),
     ("model", "keyframe_velocity"): ("zero", "mean"),
     ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
-    ("loss", "foot_skate_contacts"): ("truth", "height"),
+    ("loss", "foot_skate_contacts"): ("truth", "height", "height_either"),
     ("train", "scan_remat"): ("none", "dots", "nothing"),  # rollout.SCAN_REMAT has one policy each
 }
 

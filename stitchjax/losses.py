@@ -161,13 +161,15 @@ def foot_velocity_loss(global_positions, truth_positions, mask, feet, position_s
 
 
 def foot_height_contacts(global_positions, truth_positions, mask, feet, up_axis: int = 1,
-                         threshold: float = FOOT_HEIGHT_THRESHOLD_CM):
+                         threshold: float = FOOT_HEIGHT_THRESHOLD_CM, either_end: bool = False):
     """Soft contacts of the generated feet from their height, as the foot-slide metric weighs them, shifted
     so that frame t carries the weight of frame t - 1 (the frame a movement to t starts from).
 
     w = clip(2 - 2^(h / threshold), 0, 1), h the joint's height above the ground: the lowest ground-truth
     foot height over the valid frames. global_positions / truth_positions (..., T, J, 3) in data units
-    (centimetres for every registered dataset); mask (..., T). Returns (..., T, C) weights, no gradient.
+    (centimetres for every registered dataset); mask (..., T). either_end: frame t carries the larger of the
+    weights of t - 1 and t, so a foot that lands in frame t from the air is held too (``loss.
+    foot_skate_contacts="height_either"``). Returns (..., T, C) weights, no gradient.
     """
     truth_heights = truth_positions[..., list(feet), up_axis]  # (..., T, C)
     valid = mask[..., :, None]
@@ -176,6 +178,8 @@ def foot_height_contacts(global_positions, truth_positions, mask, feet, up_axis:
     height = global_positions[..., list(feet), up_axis] - ground[..., None, None]
     weight = jnp.clip(2.0 - jnp.power(2.0, height / threshold), 0.0, 1.0)
     shifted = jnp.concatenate([jnp.zeros_like(weight[..., :1, :]), weight[..., :-1, :]], axis=-2)
+    if either_end:
+        shifted = jnp.maximum(shifted, weight.at[..., :1, :].set(0.0))
     return jax.lax.stop_gradient(shifted)
 
 
@@ -194,10 +198,12 @@ def _foot_skate_term(out, batch, loss_config, data_config):
                                loss_config.reduction)
     up = conform.parse_axis(entry.up_axis)
     if up.sum() < 0:  # heights would be measured downwards
-        raise ValueError(f"loss.foot_skate_contacts='height' needs windows with a positive up axis; "
+        raise ValueError(f"loss.foot_skate_contacts={loss_config.foot_skate_contacts!r} needs windows with a "
+                         "positive up axis; "
                          f"{data_config.dataset!r} loads them {entry.up_axis!r} up (use 'truth')")
     up_axis = int(abs(up).argmax())
-    contacts = foot_height_contacts(positions, batch["global_positions"][:, :t], mask, feet, up_axis)
+    contacts = foot_height_contacts(positions, batch["global_positions"][:, :t], mask, feet, up_axis,
+                                    either_end=loss_config.foot_skate_contacts == "height_either")
     return foot_skate_loss(positions, contacts, mask, feet, data_config.position_scale, loss_config.reduction,
                            up_axis=up_axis)
 

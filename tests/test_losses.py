@@ -208,7 +208,7 @@ def test_foot_skate_on_height_contacts_refuses_windows_whose_up_axis_points_down
         LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), config, jnp.int32(8))
 
 
-@pytest.mark.parametrize("contacts", ["truth", "height"])
+@pytest.mark.parametrize("contacts", ["truth", "height", "height_either"])
 def test_foot_skate_weight_adds_its_term_to_the_generator_objective(setup, contacts):
     config, params, phase_params, batch = setup
     config = C.apply_overrides(config, ["loss.foot_skate_weight=2.0", f"loss.foot_skate_contacts={contacts}"])
@@ -242,3 +242,18 @@ def test_foot_velocity_weight_adds_its_term_to_the_generator_objective(setup):
                                             C.apply_overrides(config, ["loss.foot_velocity_weight=0"]), jnp.int32(8))
     assert "foot_velocity" not in base_terms
     np.testing.assert_allclose(total - base, 2.0 * terms["foot_velocity"], rtol=1e-4)
+
+
+def test_height_either_contacts_hold_a_foot_that_lands_from_the_air():
+    feet = S.LAFAN1_FEET
+    truth = jnp.zeros((1, 4, J, 3))
+    mask = jnp.ones((1, 4), bool)
+    # LeftFoot 20 cm up in frames 0-1 (no contact), then on the ground 30 cm further on from frame 2
+    landing = truth.at[0, :2, feet[0], 1].set(20.0).at[0, 2:, feet[0], 0].set(30.0)
+    start_only = LS.foot_height_contacts(landing, truth, mask, feet, up_axis=1)
+    either = LS.foot_height_contacts(landing, truth, mask, feet, up_axis=1, either_end=True)
+    assert float(start_only[0, 2, 0]) == 0.0 and float(either[0, 2, 0]) == 1.0  # the jump into frame 2
+    assert float(either[0, 0].sum()) == 0.0  # no movement into frame 0
+    np.testing.assert_array_equal(np.asarray(either) >= np.asarray(start_only), True)
+    assert float(LS.foot_skate_loss(landing, start_only, mask, feet, 100.0, up_axis=1)) == 0.0
+    assert float(LS.foot_skate_loss(landing, either, mask, feet, 100.0, up_axis=1)) > 0

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|train|train_long|finetune|evaluate|evaluate_long|
+# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -143,6 +143,18 @@ case "${1:-}" in
     bin/train $FT --init-from $BASE --workdir runs/keyvel512 --max-steps 16600 $LOSS $LR model.keyframe_velocity=mean &
     bin/train $FT --init-from $BASE --workdir runs/fvel32 --max-steps 16600 $LOSS $LR loss.foot_velocity_weight=32 &
     wait
+    ;;
+  either512)  # decay512 continued as the runs above with the foot-skate term weighing a movement by the foot's height
+    # at either end (loss.foot_skate_contacts=height_either), started alone after them and stopped by SIGTERM
+    # (the step is in results/README.md), then evaluated as they were
+    FT="--config lafan1_cpu --data $DATA --no-progress"
+    LR="train.learning_rate=5e-5 train.lr_decay_to=0.5 train.lr_decay_from_step=14500 train.lr_decay_until_step=16600"
+    bin/train $FT --init-from $OUT/from_skate512/models/decay512 --workdir runs/either512 --max-steps 16600 $LR \
+      loss.foot_skate_contacts=height_either loss.foot_skate_weight=512
+    bin/evaluate model --checkpoint runs/either512 --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
+      --json $OUT/from_decay512/either512.json
+    python results/error_frames.py --checkpoint runs/either512 --data "$DATA" --length 30 \
+      --out $OUT/from_decay512/error_frames_either512
     ;;
   evaluate_from_decay512)  # L = 30 and 50 at noise x0, x1 and x1.5 for each run (the start, decay512, is
     # from_skate512/decay512.json), and where the error is along the transition (results/error_frames.py)
