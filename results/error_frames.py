@@ -9,7 +9,7 @@ joints, the root alone and the four foot joints; and how far the feet move in th
 For the 376 subject5 test windows, the protocol's start keyframe and transitions of ``--length`` frames:
 the model at noise x0 (the prior's mean path) and x1, and interpolation. Entry t is generated frame t + 1;
 the mean over t of the "all joints" curve is the protocol's ADE, its last entry SLDE
-(``metrics.displacement_per_window`` on one frame). Foot movement: the horizontal distance (cm) each foot
+(``plots.per_frame_error``). Foot movement: the horizontal distance (cm) each foot
 joint moves in that step, averaged over joints, windows and samples; the ground truth's beside it. Writes
 ``error_L<L>.json`` and ``error_L<L>.png``.
 """
@@ -25,14 +25,8 @@ import numpy as np
 REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from stitchjax import evaluate, lafan1, metrics, rollout, skeleton, trained_model  # noqa: E402
+from stitchjax import evaluate, lafan1, metrics, plots, rollout, skeleton, trained_model  # noqa: E402
 from stitchjax.skeleton import forward_kinematics  # noqa: E402
-
-
-def per_frame_error(positions, truth, metres_per_unit: float) -> np.ndarray:
-    """positions (S, B, T, J, 3) and truth (B, T, J, 3) global -> (T,) mean joint distance per frame (m)."""
-    return np.stack([metrics.displacement_per_window(positions[:, :, t:t + 1], truth[:, t:t + 1]).mean()
-                     for t in range(truth.shape[1])]) * metres_per_unit
 
 
 def keyframe_steps(positions, first_key, last_key, feet, up_axis: int = 1) -> tuple[float, float]:
@@ -72,9 +66,10 @@ def main(argv=None) -> int:
     for name, (method, samples) in methods.items():
         rotations, positions = method(windows, start, length, samples, 0)
         _, p = forward_kinematics(np.asarray(rotations, np.float64), np.asarray(positions, np.float64), parents)
-        curves[name] = per_frame_error(p, truth, metrics.LAFAN1_METRES_PER_UNIT)
-        curves[name + ", root"] = per_frame_error(p[..., :1, :], truth[..., :1, :], metrics.LAFAN1_METRES_PER_UNIT)
-        curves[name + ", feet"] = per_frame_error(p[..., feet, :], truth[..., feet, :], metrics.LAFAN1_METRES_PER_UNIT)
+        curves[name] = plots.per_frame_error(p, truth, metrics.LAFAN1_METRES_PER_UNIT)
+        curves[name + ", root"] = plots.per_frame_error(p[..., :1, :], truth[..., :1, :], metrics.LAFAN1_METRES_PER_UNIT)
+        curves[name + ", feet"] = plots.per_frame_error(p[..., feet, :], truth[..., feet, :],
+                                                       metrics.LAFAN1_METRES_PER_UNIT)
         steps[name] = keyframe_steps(p, first_key, last_key, feet)
 
     print("frame " + "".join(f"{name:>22}" for name in curves))
@@ -95,21 +90,11 @@ def main(argv=None) -> int:
                               "start_keyframe_to_frame_1": {k: round(v[0], 3) for k, v in steps.items()},
                               "frame_L_to_target_keyframe": {k: round(v[1], 3) for k, v in steps.items()}}},
         indent=1) + "\n")
-    import matplotlib  # reason: only for the figure
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(7, 3.5))
-    for name, curve in curves.items():
-        style = "--" if name.endswith("root") else ":" if name.endswith("feet") else "-"
-        ax.plot(np.arange(1, length + 1), curve, label=name, linestyle=style)
     h, k, _, _ = (int(x) for x in rollout.schedule(model.config, length))
-    ax.axvspan(h - k + 1, h + k, color="grey", alpha=0.15, label=f"stitch overlap (frames {h - k + 1}-{h + k})")
-    ax.set_xlabel("generated frame")
-    ax.set_ylabel("joint position error (m)")
-    ax.set_title(f"Error along the transition, L = {length}, {len(windows.rotations)} windows")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(stem.with_suffix(".png"), dpi=120)
+    plots.error_over_time(curves, ylabel="joint position error (m)", xlabel="generated frame", figsize=(7.0, 4.0),
+                          dpi=120, path=stem.with_suffix(".png"),
+                          title=f"Error along the transition, L = {length}, {len(windows.rotations)} windows "
+                                f"(stitch overlap: frames {h - k + 1}-{h + k})")
     print(f"wrote {stem}.json and {stem}.png")
     return 0
 
