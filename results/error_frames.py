@@ -26,7 +26,7 @@ REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from stitchjax import evaluate, lafan1, metrics, plots, rollout, skeleton, trained_model  # noqa: E402
-from stitchjax.skeleton import forward_kinematics  # noqa: E402
+from foot_slide_frames import method_positions, truth_positions  # noqa: E402  (results/, the script's folder)
 
 
 def keyframe_steps(positions, first_key, last_key, feet, up_axis: int = 1) -> tuple[float, float]:
@@ -52,20 +52,13 @@ def main(argv=None) -> int:
     model = trained_model.load_model(args.checkpoint)
     windows = lafan1.test_windows(args.data)
     start, length = evaluate.START_FRAME, args.length
-    parents = tuple(int(p) for p in windows.skeleton.parents)
-    _, gt = forward_kinematics(np.asarray(windows.rotations, np.float64), np.asarray(windows.positions, np.float64),
-                               parents)
+    gt = truth_positions(windows)
     truth = gt[:, start + 1:start + length + 1]
     feet = list(skeleton.LAFAN1_FEET)
     first_key, last_key = gt[:, start], gt[:, start + length + 1]
     steps = {"ground truth": keyframe_steps(truth[None], first_key, last_key, feet)}
-    methods = {"model noise x0": (evaluate.model_method(model, noise_scale=0.0), 1),
-               "model noise x1": (evaluate.model_method(model), args.samples),
-               "interpolation": (evaluate.interpolation_method, 1)}
     curves = {}
-    for name, (method, samples) in methods.items():
-        rotations, positions = method(windows, start, length, samples, 0)
-        _, p = forward_kinematics(np.asarray(rotations, np.float64), np.asarray(positions, np.float64), parents)
+    for name, p in method_positions(model, windows, start, length, args.samples).items():
         curves[name] = plots.per_frame_error(p, truth, metrics.LAFAN1_METRES_PER_UNIT)
         curves[name + ", root"] = plots.per_frame_error(p[..., :1, :], truth[..., :1, :], metrics.LAFAN1_METRES_PER_UNIT)
         curves[name + ", feet"] = plots.per_frame_error(p[..., feet, :], truth[..., feet, :],

@@ -35,6 +35,28 @@ def per_frame_slide(positions, ground, feet) -> np.ndarray:
     return np.asarray(out)
 
 
+def truth_positions(windows) -> np.ndarray:
+    """Global positions (B, T, J, 3) of the whole test windows (file units)."""
+    parents = tuple(int(p) for p in windows.skeleton.parents)
+    return forward_kinematics(np.asarray(windows.rotations, np.float64), np.asarray(windows.positions, np.float64),
+                              parents)[1]
+
+
+def method_positions(model, windows, start: int, length: int, samples: int) -> dict:
+    """Global positions (S, B, L, J, 3) of the generated frames of the test windows: {"model noise x0" (S = 1),
+    "model noise x1" (S = samples), "interpolation" (S = 1)}."""
+    parents = tuple(int(p) for p in windows.skeleton.parents)
+    methods = {"model noise x0": (evaluate.model_method(model, noise_scale=0.0), 1),
+               "model noise x1": (evaluate.model_method(model), samples),
+               "interpolation": (evaluate.interpolation_method, 1)}
+    out = {}
+    for name, (method, count) in methods.items():
+        rotations, positions = method(windows, start, length, count, 0)
+        out[name] = forward_kinematics(np.asarray(rotations, np.float64), np.asarray(positions, np.float64),
+                                       parents)[1]
+    return out
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--checkpoint", required=True)
@@ -46,9 +68,7 @@ def main(argv=None) -> int:
     model = trained_model.load_model(args.checkpoint)
     windows = lafan1.test_windows(args.data)
     feet, start, length = tuple(skeleton.LAFAN1_FEET), evaluate.START_FRAME, args.length
-    parents = tuple(int(p) for p in windows.skeleton.parents)
-    _, gt = forward_kinematics(np.asarray(windows.rotations, np.float64), np.asarray(windows.positions, np.float64),
-                               parents)
+    gt = truth_positions(windows)
     ground = metrics.ground_heights(gt, feet)
     keys = (gt[None, :, start:start + 1], gt[None, :, start + length + 1:start + length + 2])
 
@@ -56,14 +76,8 @@ def main(argv=None) -> int:
         return np.concatenate([np.broadcast_to(keys[0], p[:, :, :1].shape), p,
                                np.broadcast_to(keys[1], p[:, :, :1].shape)], axis=2)
 
-    methods = {"model noise x0": (evaluate.model_method(model, noise_scale=0.0), 1),
-               "model noise x1": (evaluate.model_method(model), args.samples),
-               "interpolation": (evaluate.interpolation_method, 1)}
-    curves = {}
-    for name, (method, samples) in methods.items():
-        rotations, positions = method(windows, start, length, samples, 0)
-        _, p = forward_kinematics(np.asarray(rotations, np.float64), np.asarray(positions, np.float64), parents)
-        curves[name] = per_frame_slide(with_keyframes(p), ground, feet)
+    curves = {name: per_frame_slide(with_keyframes(p), ground, feet)
+              for name, p in method_positions(model, windows, start, length, args.samples).items()}
     curves["ground truth"] = per_frame_slide(gt[None, :, start:start + length + 2], ground, feet)
 
     print("step    " + "".join(f"{name:>16}" for name in curves))
