@@ -183,14 +183,19 @@ def foot_height_contacts(global_positions, truth_positions, mask, feet, up_axis:
     return jax.lax.stop_gradient(shifted)
 
 
+def _fixed_feet(entry, data_config, field: str):
+    """The contact joints of the dataset `entry`; a ValueError naming `field` when it reads them per file."""
+    if entry.feet is None:
+        raise ValueError(f"{field} needs a dataset with fixed feet; {data_config.dataset!r} reads them from its "
+                         f"files (set {field}=0)")
+    return entry.feet
+
+
 def _foot_skate_term(out, batch, loss_config, data_config):
     """loss.foot_skate_weight's term on the stitched motion `out`, with the dataset's feet and the contacts
     that ``loss.foot_skate_contacts`` names."""
     entry = datasets.get(data_config.dataset)
-    feet = entry.feet
-    if feet is None:
-        raise ValueError(f"loss.foot_skate_weight needs a dataset with fixed feet; {data_config.dataset!r} "
-                         "reads them from its files (set loss.foot_skate_weight=0)")
+    feet = _fixed_feet(entry, data_config, "loss.foot_skate_weight")
     positions, mask = out["global_positions"], out["mask"]
     t = positions.shape[1]
     if loss_config.foot_skate_contacts == "truth":
@@ -199,8 +204,7 @@ def _foot_skate_term(out, batch, loss_config, data_config):
     up = conform.parse_axis(entry.up_axis)
     if up.sum() < 0:  # heights would be measured downwards
         raise ValueError(f"loss.foot_skate_contacts={loss_config.foot_skate_contacts!r} needs windows with a "
-                         "positive up axis; "
-                         f"{data_config.dataset!r} loads them {entry.up_axis!r} up (use 'truth')")
+                         f"positive up axis; {data_config.dataset!r} loads them {entry.up_axis!r} up (use 'truth')")
     up_axis = int(abs(up).argmax())
     contacts = foot_height_contacts(positions, batch["global_positions"][:, :t], mask, feet, up_axis,
                                     either_end=loss_config.foot_skate_contacts == "height_either")
@@ -210,10 +214,7 @@ def _foot_skate_term(out, batch, loss_config, data_config):
 
 def _foot_velocity_term(out, batch, loss_config, data_config):
     """loss.foot_velocity_weight's term on the stitched motion `out`, with the dataset's feet."""
-    feet = datasets.get(data_config.dataset).feet
-    if feet is None:
-        raise ValueError(f"loss.foot_velocity_weight needs a dataset with fixed feet; {data_config.dataset!r} "
-                         "reads them from its files (set loss.foot_velocity_weight=0)")
+    feet = _fixed_feet(datasets.get(data_config.dataset), data_config, "loss.foot_velocity_weight")
     positions = out["global_positions"]
     return foot_velocity_loss(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"], feet,
                               data_config.position_scale, loss_config.reduction)

@@ -5,7 +5,8 @@ a fresh one.
   as `<step>.broken` (nothing is deleted) and metrics past the restored step are dropped. A saved run whose
   data / model / loss / phase config differs is refused (only train.* may change on resume).
 - Fine-tune (`init_from`): a new run folder starts from another run's newest state (same data, model and phase
-  config; loss.*, train.* and ``config.FINE_TUNABLE_MODEL_FIELDS`` may differ), its step, optimiser moments and key included.
+  config; loss.*, train.* and ``config.FINE_TUNABLE_MODEL_FIELDS`` may differ), its step, optimiser moments
+  and key included.
 """
 from __future__ import annotations
 
@@ -107,9 +108,9 @@ def state_from_run(config_json: dict, source: str | os.PathLike, abstract_state:
     tunable = tuple(("model", field) for field in config_lib.FINE_TUNABLE_MODEL_FIELDS)
     changed = _differing_sections(saved, config_json, ("data", "model", "phase"), ignore=tunable)
     if changed:
+        tunable_names = ", ".join(f"model.{field}" for field in config_lib.FINE_TUNABLE_MODEL_FIELDS)
         raise ResumeError(f"--init-from {source}: its {', '.join(changed)} config differs from this one; "
-                          "only loss.*, train.* and model." + ", model.".join(config_lib.FINE_TUNABLE_MODEL_FIELDS)
-                          + " may change when fine-tuning")
+                          f"only loss.*, train.* and {tunable_names} may change when fine-tuning")
     manager = checkpoints.open_manager(source, read_only=True)
     try:
         state, _, _, step = checkpoints.restore_newest_good(manager, abstract_state)

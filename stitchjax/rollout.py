@@ -47,8 +47,8 @@ from stitchjax import scan_gradients
 from stitchjax import skeleton as skel
 
 __all__ = ["rollout", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule", "interpolation_weight",
-           "aligning_step", "stitch", "keyframe_velocity", "keyframe_states", "direction_frames", "next_frame_states", "correlated_noise",
-           "prior_sample_flags", "GAUSSIAN_KEYS"]
+           "aligning_step", "stitch", "keyframe_velocity", "keyframe_states", "direction_frames",
+           "next_frame_states", "correlated_noise", "prior_sample_flags", "GAUSSIAN_KEYS"]
 
 GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend", "mu_posterior",
                  "logvar_posterior")
@@ -160,9 +160,10 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
 
     carry: (forward LSTM carry, backward LSTM carry, latest forward frame, latest backward frame);
     i: () step index; eps_i: (2, latent) noise; plan: {"length", "n_forward", "n_backward", "start",
-    "target"} (keyframes as frame dicts, :func:`keyframe_states`: the target in reversed time), optionally "use_prior" (see :func:`rollout`); probes_i / truth_i:
-    this step's probes and posterior inputs (forward, backward) or None. Returns (carry, outputs) with "forward" / "backward" frame dicts plus
-    their Gaussians, and "inputs" (recorded matmul inputs, None unless probed).
+    "target"} (keyframes as frame dicts, :func:`keyframe_states`: the target in reversed time), optionally
+    "use_prior" (see :func:`rollout`); probes_i / truth_i: this step's probes and posterior inputs (forward,
+    backward) or None. Returns (carry, outputs) with "forward" / "backward" frame dicts plus their Gaussians,
+    and "inputs" (recorded matmul inputs, None unless probed).
     """
     m = config.model
     dtype = plan["start"]["rotations"].dtype
