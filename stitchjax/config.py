@@ -172,6 +172,9 @@ class TrainConfig:
     length_step: int = 1  # paper: +1 ...
     epochs_per_length: int = 2  # paper: ... every 2 epochs
     num_epochs: int = 100  # reason: (5 -> 50 takes 90 epochs) + some epochs at the full length
+    length_after_schedule: str = "max"  # paper: once the schedule reaches max_length, train at max_length.
+    # "uniform": each step then draws its length from [min_length, max_length] (schedule.transition_length),
+    # so a long run keeps training the shorter lengths the protocol tests (results/README.md measures it)
     seed: int = 0  # reason: reproducibility
     log_every: int = 100  # reason: steps between metric logs
     checkpoint_every: int = 1  # reason: epochs between checkpoints
@@ -305,6 +308,7 @@ CHOICES = {
     ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
     ("loss", "foot_skate_contacts"): ("truth", "height", "height_either"),
     ("train", "scan_remat"): ("none", "dots", "nothing"),  # rollout.SCAN_REMAT has one policy each
+    ("train", "length_after_schedule"): ("max", "uniform"),  # schedule.transition_length
 }
 
 

@@ -2,6 +2,7 @@
 
     per_epoch = steps_per_epoch(num_windows, batch_size)          # N_windows // batch_size
     length = transition_length(step, per_epoch, config.train)      # min_length + length_step per epochs_per_length
+                                                                   # (then max_length, or a uniform draw)
     window = bucket_window(length, config.train)                   # the compiled window of that length
 
 ``train.length_buckets`` groups lengths into a few static windows (one compile each) instead of one
@@ -12,6 +13,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import jax.numpy as jnp
+import numpy as np
 
 __all__ = ["ScheduleError", "steps_per_epoch", "transition_length", "total_steps", "RunPlan", "plan_run",
            "bucket_window", "check_lr_decay", "learning_rate_factor"]
@@ -29,10 +31,17 @@ def steps_per_epoch(num_windows: int, batch_size: int) -> int:
 def transition_length(step: int, steps_per_epoch: int, train_config) -> int:
     """Progressive transition length: min_length, + length_step every `epochs_per_length` epochs, <= max_length.
 
-    An epoch is `steps_per_epoch` steps (N_windows // batch_size).
+    An epoch is `steps_per_epoch` steps (N_windows // batch_size). Once the schedule has reached max_length,
+    ``train.length_after_schedule`` decides: "max" (the paper) keeps max_length; "uniform" draws each step's
+    length uniformly from [min_length, max_length], a pure function of (train.seed, step) so a resumed run
+    draws the same lengths.
     """
     grow = int(step) // max(1, int(round(train_config.epochs_per_length * steps_per_epoch)))
-    return int(min(train_config.max_length, train_config.min_length + grow * train_config.length_step))
+    length = int(min(train_config.max_length, train_config.min_length + grow * train_config.length_step))
+    if length == train_config.max_length and train_config.length_after_schedule == "uniform":
+        draw = np.random.default_rng([int(train_config.seed), int(step)])
+        return int(draw.integers(train_config.min_length, train_config.max_length + 1))
+    return length
 
 
 def total_steps(steps_per_epoch: int, train_config) -> int:

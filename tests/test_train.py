@@ -1,4 +1,5 @@
 """Training: the jitted step, overfitting, resume, data parallelism, NaN guard, signals, the CLI."""
+import dataclasses
 import json
 import os
 import pathlib
@@ -38,6 +39,21 @@ def test_schedule_and_buckets():
     assert schedule.bucket_window(7, tc) is None
     tb = tiny_config("train.length_buckets=10,30,48").train
     assert [schedule.bucket_window(n, tb) for n in (5, 10, 11, 48)] == [12, 12, 32, 50]
+
+
+def test_uniform_lengths_after_schedule():
+    tc = tiny_config("train.min_length=5", "train.max_length=48", "train.epochs_per_length=2",
+                     "train.length_after_schedule=uniform").train
+    # the progressive part is unchanged; after it, each step draws its own length, the same on every call
+    assert [schedule.transition_length(s, 10, tc) for s in (0, 19, 20, 39, 40)] == [5, 5, 6, 6, 7]
+    drawn = [schedule.transition_length(s, 10, tc) for s in range(860, 3860)]
+    assert drawn == [schedule.transition_length(s, 10, tc) for s in range(860, 3860)]
+    assert min(drawn) == 5 and max(drawn) == 48 and len(set(drawn)) == 44
+    assert abs(sum(drawn) / len(drawn) - (5 + 48) / 2) < 1.0
+    reseeded = dataclasses.replace(tc, seed=1)
+    assert drawn != [schedule.transition_length(s, 10, reseeded) for s in range(860, 3860)]
+    with pytest.raises(ValueError, match="length_after_schedule"):
+        tiny_config("train.length_after_schedule=random")
 
 
 @pytest.mark.parametrize("extra", [(), ("model.matmul_dtype=bfloat16",)])

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|train|train_long|finetune|evaluate|evaluate_long|
+# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -155,6 +155,27 @@ case "${1:-}" in
       --json $OUT/from_decay512/either512.json
     python results/error_frames.py --checkpoint runs/either512 --data "$DATA" --length 30 \
       --out $OUT/from_decay512/error_frames_either512
+    ;;
+  mixed_lengths)  # decay512 continued as from_decay512 above (same steps and learning rate), with each step's length
+    # drawn uniformly from 5-50 (train.length_after_schedule=uniform; decay512 trained at L = 50 only since step
+    # ~1500): the foot-skate term on height contacts (against more512), on either end (against either512), and
+    # either end with the foot velocity term at 16; three side by side at nice -n 10
+    FT="--config lafan1_cpu --data $DATA --no-progress --init-from $OUT/from_skate512/models/decay512 --max-steps 16600"
+    LR="train.learning_rate=5e-5 train.lr_decay_to=0.5 train.lr_decay_from_step=14500 train.lr_decay_until_step=16600"
+    MIX="train.length_after_schedule=uniform loss.foot_skate_weight=512"
+    bin/train $FT --workdir runs/mixed512 $LR $MIX loss.foot_skate_contacts=height &
+    bin/train $FT --workdir runs/mixed_either512 $LR $MIX loss.foot_skate_contacts=height_either &
+    bin/train $FT --workdir runs/mixed_either_fvel16 $LR $MIX loss.foot_skate_contacts=height_either \
+      loss.foot_velocity_weight=16 &
+    wait
+    ;;
+  evaluate_mixed_lengths)  # as evaluate_from_decay512
+    for run in mixed512 mixed_either512 mixed_either_fvel16; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
+        --json $OUT/mixed_lengths/$run.json
+      python results/error_frames.py --checkpoint runs/$run --data "$DATA" --length 30 \
+        --out $OUT/mixed_lengths/error_frames_$run
+    done
     ;;
   evaluate_from_decay512)  # L = 30 and 50 at noise x0, x1 and x1.5 for each run (the start, decay512, is
     # from_skate512/decay512.json), and where the error is along the transition (results/error_frames.py)
