@@ -28,10 +28,13 @@ from stitchjax.skeleton import forward_kinematics  # noqa: E402
 START = 9  # the protocol's start keyframe (DESIGN.md §6)
 
 
-def window_figures(model, windows, index: int, length: int, samples: int, seed: int, out: pathlib.Path) -> dict:
-    """Filmstrip and root paths of ``samples`` transitions of test window ``index``; returns a summary."""
+def window_figures(model, windows, index: int, length: int, samples: int, seed: int, out: pathlib.Path,
+                   noise_scale: float = 1.0) -> dict:
+    """Filmstrip and root paths of ``samples`` transitions of test window ``index``, the latent noise scaled
+    by ``noise_scale``; returns a summary."""
     one = windows[index:index + 1]
-    rotations, positions = evaluate.model_method(model)(one, START, length, samples, seed)  # (S, 1, L, J, .)
+    method = evaluate.model_method(model, noise_scale=noise_scale)
+    rotations, positions = method(one, START, length, samples, seed)  # (S, 1, L, J, .)
     rot_all = np.asarray(one.rotations, np.float64)[0, START:START + length + 2]
     pos_all = np.asarray(one.positions, np.float64)[0, START:START + length + 2]
     motions = []
@@ -45,15 +48,17 @@ def window_figures(model, windows, index: int, length: int, samples: int, seed: 
     spread_mid = float(metrics.joint_spread_per_window(motions[:, None, 1:-1], frame=length // 2)[0])
     spread = float(metrics.joint_spread_per_window(motions[:, None, 1:-1])[0])
     titles = ["ground truth"] + [f"sample {s + 1}" for s in range(samples)]
+    suffix = "" if noise_scale == 1.0 else f"_noise{noise_scale:g}"
+    noise = "" if noise_scale == 1.0 else f", latent noise x{noise_scale:g}"
     plots.filmstrip([truth] + list(motions), model.parents, every=5, titles=titles,
-                    title=f"LAFAN1 subject5 test window {index}, L = {length}: {samples} samples "
+                    title=f"LAFAN1 subject5 test window {index}, L = {length}: {samples} samples{noise} "
                           f"(mid-transition spread {spread_mid:.1f} cm per joint)",
-                    path=out / f"filmstrip_L{length}.png")
+                    path=out / f"filmstrip_L{length}{suffix}.png")
     plots.root_trajectories(list(motions), reference=truth, title=f"root paths, window {index}, L = {length}",
-                            path=out / f"root_paths_L{length}.png")
+                            path=out / f"root_paths_L{length}{suffix}.png")
     summary = {"window": index, "length": length, "samples": samples, "seed": seed,
-               "spread_cm": spread, "spread_mid_cm": spread_mid}
-    (out / f"window_L{length}.json").write_text(json.dumps(summary, indent=2) + "\n")
+               "noise_scale": noise_scale, "spread_cm": spread, "spread_mid_cm": spread_mid}
+    (out / f"window_L{length}{suffix}.json").write_text(json.dumps(summary, indent=2) + "\n")
     return summary
 
 
@@ -89,6 +94,8 @@ def main(argv=None) -> int:
     parser.add_argument("--length", type=int, default=50, help="transition length (default 50)")
     parser.add_argument("--samples", type=int, default=8, help="samples (default 8)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--noise-scale", type=float, default=1.0,
+                        help="factor on the latent noise of the filmstrip's samples (default 1; files get a _noise<s> suffix)")
     parser.add_argument("--no-notebook", action="store_true", help="skip executing the notebook")
     args = parser.parse_args(argv)
     out = pathlib.Path(args.out)
@@ -97,7 +104,8 @@ def main(argv=None) -> int:
     windows = lafan1.test_windows(args.data)
     if not 0 <= args.window < len(windows):
         parser.error(f"--window {args.window}: the test set has {len(windows)} windows (0..{len(windows) - 1})")
-    print(json.dumps(window_figures(model, windows, args.window, args.length, args.samples, args.seed, out)))
+    print(json.dumps(window_figures(model, windows, args.window, args.length, args.samples, args.seed, out,
+                                    args.noise_scale)))
     if not args.no_notebook:
         print(f"notebook: {notebook_figures(pathlib.Path(args.checkpoint), out / 'notebook')} figures")
     return 0

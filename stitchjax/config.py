@@ -144,6 +144,11 @@ class LossConfig:
     # than "truth" at 8, with 18 % less APD. "height_either": a movement is weighed by the foot's height at
     # either end, so a foot in the air cannot jump onto the ground at no cost (at 512 "height" let the feet
     # jump 8.4 cm into the first generated frame: results/README.md, from_decay512)
+    near_keyframe_weight: float = 1.0  # reason: not in the paper (1 = every frame alike): the weight of the
+    # state and FK terms on each direction's first near_keyframe_frames generated frames, the ones next to a
+    # keyframe (the last generated frame is what SLDE scores; the models trained here had a higher SLDE than
+    # interpolation at every length: results/README.md)
+    near_keyframe_frames: int = 1  # reason: how many frames near_keyframe_weight weighs, per direction
     foot_velocity_weight: float = 0.0  # reason: not in the paper (0 = off): > 0 adds losses.foot_velocity_loss,
     # the feet's movement per frame against the ground truth's. With the foot-skate term at 512 alone the feet
     # jumped 8.4 cm in the first generated frame (ground truth 2.6; results/README.md, from_decay512)

@@ -36,8 +36,8 @@ from stitchjax.windows import FOOT_HEIGHT_THRESHOLD_CM
 __all__ = [
     "masked_mean", "state_loss", "kl_loss", "fk_loss", "stitching_loss", "lsgan_generator_loss",
     "lsgan_discriminator_loss", "disc_features", "direction_targets", "generator_loss", "gaussian_kl",
-    "posterior_kl_loss", "kl_warmup", "reconstruction_weights", "adversarial_generator_terms", "foot_skate_loss",
-    "foot_height_contacts", "generator_rollouts",
+    "posterior_kl_loss", "kl_warmup", "reconstruction_weights", "near_keyframe_weights",
+    "adversarial_generator_terms", "foot_skate_loss", "foot_height_contacts", "generator_rollouts",
     "generator_objective",
     "discriminator_loss",
 ]
@@ -262,13 +262,28 @@ def reconstruction_weights(prior_sampled, weight: float):
     return jnp.where(prior_sampled, jnp.float32(weight), jnp.float32(1.0))
 
 
+def near_keyframe_weights(num_steps: int, weight: float, frames: int):
+    """(n,) weight of each step of one direction in the reconstruction terms: ``weight``
+    (``loss.near_keyframe_weight``) on the first ``frames`` generated frames, the ones next to the keyframe
+    the direction starts from (the backward direction's first is the transition's last frame, which SLDE
+    scores), 1 on the others. The terms stay weighted means over frames."""
+    if weight < 0 or frames < 0:
+        raise ValueError(f"loss.near_keyframe_weight and loss.near_keyframe_frames must be >= 0, got {weight}, "
+                         f"{frames}")
+    return jnp.where(jnp.arange(num_steps) < frames, jnp.float32(weight), jnp.float32(1.0))
+
+
 def _direction_terms(out_dir, target, loss_config, data_config, posterior: str, window_weights=None):
     """Per-direction terms: "state" and its parts, "fk", "kl" (the KL that is reported), "kl_penalty" (what
     the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I))). window_weights: (B,) weights
-    of the state and FK terms (:func:`reconstruction_weights`), None = 1."""
+    of the state and FK terms (:func:`reconstruction_weights`), None = 1; the frames next to the keyframe are
+    weighted by :func:`near_keyframe_weights`."""
     lc = loss_config
     mask = out_dir["mask"]
     recon_mask = mask if window_weights is None else mask * window_weights[:, None]
+    if lc.near_keyframe_weight != 1.0:
+        recon_mask = recon_mask * near_keyframe_weights(mask.shape[-1], lc.near_keyframe_weight,
+                                                        lc.near_keyframe_frames)
     state, parts = state_loss(out_dir, target, recon_mask, lc)
     prior_kl = kl_loss(out_dir["mu_blend"], out_dir["logvar_blend"], mask, lc.reduction)
     if posterior == "none":

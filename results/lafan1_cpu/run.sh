@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|train|train_long|finetune|evaluate|evaluate_long|
+# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -168,6 +168,29 @@ case "${1:-}" in
     bin/train $FT --workdir runs/mixed_either_fvel16 $LR $MIX loss.foot_skate_contacts=height_either \
       loss.foot_velocity_weight=16 &
     wait
+    ;;
+  from_mixed)  # three continuations of mixed_lengths/models/mixed_either_fvel16 (step 16600) side by side at
+    # nice -n 10, to step 18400, the learning rate from 2.5e-5 (where it stopped) down to 1.25e-5: fv16_cont changes
+    # nothing (the control); near8 weighs each direction's first two generated frames x8 in the state and FK terms
+    # (loss.near_keyframe_weight: the last generated frame is what SLDE scores); recon25 scores the windows drawn
+    # from the prior at reconstruction weight 0.25 (the samples spread more: late_prior/recon25)
+    FT="--config lafan1_cpu --data $DATA --no-progress --init-from $OUT/mixed_lengths/models/mixed_either_fvel16"
+    FT="$FT --max-steps 18400"
+    LR="train.learning_rate=2.5e-5 train.lr_decay_to=0.5 train.lr_decay_from_step=16600 train.lr_decay_until_step=18400"
+    MIX="train.length_after_schedule=uniform loss.foot_skate_weight=512 loss.foot_skate_contacts=height_either"
+    MIX="$MIX loss.foot_velocity_weight=16"
+    bin/train $FT --workdir runs/fv16_cont $LR $MIX &
+    bin/train $FT --workdir runs/near8 $LR $MIX loss.near_keyframe_weight=8 loss.near_keyframe_frames=2 &
+    bin/train $FT --workdir runs/recon25_mixed $LR $MIX loss.prior_sample_reconstruction_weight=0.25 &
+    wait
+    ;;
+  evaluate_from_mixed)  # as evaluate_mixed_lengths
+    for run in fv16_cont near8 recon25_mixed; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
+        --json $OUT/from_mixed/$run.json
+      python results/error_frames.py --checkpoint runs/$run --data "$DATA" --length 30 \
+        --out $OUT/from_mixed/error_frames_$run
+    done
     ;;
   evaluate_mixed_lengths)  # as evaluate_from_decay512
     for run in mixed512 mixed_either512 mixed_either_fvel16; do
