@@ -12,6 +12,12 @@ shared with two other runs); the reproduction model (`height32`) is the same run
 `loss.foot_skate_contacts=height loss.foot_skate_weight=32` (7-13 % less foot slide, measured;
 `bash results/lafan1_cpu/run.sh scratch`). The earlier models in results/lafan1_cpu were trained before
 prior_sample_fraction and foot_skate_weight were set here (run.sh passes their old values).
+
+The best model so far continues that run through a chain of fine-tunes (results/README.md, `mixed_lengths/`;
+every command in results/lafan1_cpu/run.sh): the foot-skate term on either end's height at 512
+(`loss.foot_skate_contacts=height_either`), the foot velocity term at 16, the learning rate decayed, and every
+length drawn after the schedule (`train.length_after_schedule=uniform`: 14 % less foot slide than L = 50 alone).
+Those were measured as fine-tunes only, so the defaults here stay those of the from-scratch run.
 """
 import dataclasses
 import pathlib

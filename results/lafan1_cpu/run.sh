@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|train|train_long|finetune|evaluate|evaluate_long|
+# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -8,6 +8,16 @@ DATA=${DATA:-../shared/data/lafan1}
 OUT=results/lafan1_cpu
 # The runs before "scratch" were made when lafan1_cpu had no prior samples and no foot-skate term:
 BEFORE="loss.prior_sample_fraction=0 loss.foot_skate_weight=0"
+evaluate_runs() {  # evaluate_runs FOLDER RUN...: L = 30 and 50 at noise x0, x1 and x1.5 and where the error is
+  # along the transition (results/error_frames.py, L = 30) for each runs/RUN, into $OUT/FOLDER
+  local folder=$1; shift
+  for run in "$@"; do
+    bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
+      --json $OUT/$folder/$run.json
+    python results/error_frames.py --checkpoint runs/$run --data "$DATA" --length 30 \
+      --out $OUT/$folder/error_frames_$run
+  done
+}
 case "${1:-}" in
   scratch)  # the reproduction from scratch with prior samples and the foot-skate term from step 0 (configs/lafan1_cpu.py),
     # "none" trained the same way, and from step 2000 the height-weighted foot-skate term; the three went side by
@@ -151,10 +161,7 @@ case "${1:-}" in
     LR="train.learning_rate=5e-5 train.lr_decay_to=0.5 train.lr_decay_from_step=14500 train.lr_decay_until_step=16600"
     bin/train $FT --init-from $OUT/from_skate512/models/decay512 --workdir runs/either512 --max-steps 16600 $LR \
       loss.foot_skate_contacts=height_either loss.foot_skate_weight=512
-    bin/evaluate model --checkpoint runs/either512 --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
-      --json $OUT/from_decay512/either512.json
-    python results/error_frames.py --checkpoint runs/either512 --data "$DATA" --length 30 \
-      --out $OUT/from_decay512/error_frames_either512
+    evaluate_runs from_decay512 either512
     ;;
   mixed_lengths)  # decay512 continued as from_decay512 above (same steps and learning rate), with each step's length
     # drawn uniformly from 5-50 (train.length_after_schedule=uniform; decay512 trained at L = 50 only since step
@@ -185,29 +192,21 @@ case "${1:-}" in
     wait
     ;;
   evaluate_from_mixed)  # as evaluate_mixed_lengths
-    for run in fv16_cont near8 recon25_mixed; do
-      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
-        --json $OUT/from_mixed/$run.json
-      python results/error_frames.py --checkpoint runs/$run --data "$DATA" --length 30 \
-        --out $OUT/from_mixed/error_frames_$run
-    done
+    evaluate_runs from_mixed fv16_cont near8 recon25_mixed
+    ;;
+  scratch_mixed)  # lafan1_cpu from scratch with what the fine-tunes above found, from step 0: every length after the
+    # schedule, the foot-skate term on either end's height at 128, the foot velocity term at 16; alone on the 2
+    # cores (nice -n 10), stopped by SIGTERM when the time was up (the step is in results/README.md)
+    bin/train --config lafan1_cpu --workdir runs/scratch_mixed --data "$DATA" --no-progress --max-steps 16000 \
+      train.length_after_schedule=uniform loss.foot_skate_contacts=height_either loss.foot_skate_weight=128 \
+      loss.foot_velocity_weight=16
     ;;
   evaluate_mixed_lengths)  # as evaluate_from_decay512
-    for run in mixed512 mixed_either512 mixed_either_fvel16; do
-      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
-        --json $OUT/mixed_lengths/$run.json
-      python results/error_frames.py --checkpoint runs/$run --data "$DATA" --length 30 \
-        --out $OUT/mixed_lengths/error_frames_$run
-    done
+    evaluate_runs mixed_lengths mixed512 mixed_either512 mixed_either_fvel16
     ;;
   evaluate_from_decay512)  # L = 30 and 50 at noise x0, x1 and x1.5 for each run (the start, decay512, is
     # from_skate512/decay512.json), and where the error is along the transition (results/error_frames.py)
-    for run in more512 keyvel512 fvel32; do
-      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 30,50 --noise-scales 0,1.5 \
-        --json $OUT/from_decay512/$run.json
-      python results/error_frames.py --checkpoint runs/$run --data "$DATA" --length 30 \
-        --out $OUT/from_decay512/error_frames_$run
-    done
+    evaluate_runs from_decay512 more512 keyvel512 fvel32
     for run in decay512 height32; do  # the same for the start and for the reproduction model (scratch/height32)
       python results/error_frames.py --checkpoint $OUT/*/models/$run --data "$DATA" --length 30 \
         --out $OUT/from_decay512/error_frames_$run
