@@ -1,6 +1,7 @@
-"""The reproduction model committed in results/ (results/README.md, `lafan1_cpu/scratch/`): today's code
-loads it, its transitions end exactly on the keyframes, and on the bundled subject5 windows it still beats
-interpolation where the full evaluation says it does (ADE and NPSS at L = 30 and 50)."""
+"""The models committed in results/: the reproduction model (results/README.md, `lafan1_cpu/scratch/`) and the
+best fine-tune (`lafan1_cpu/mixed_lengths/`). Today's code loads them and their transitions end exactly on the
+keyframes; on the bundled subject5 windows the reproduction model still beats interpolation where the full
+evaluation says it does (ADE and NPSS at L = 30 and 50)."""
 import pathlib
 
 import numpy as np
@@ -8,7 +9,9 @@ import pytest
 
 from stitchjax import bvh, evaluate, inbetween, lafan1, sample, trained_model
 
-MODEL = pathlib.Path(__file__).resolve().parent.parent / "results/lafan1_cpu/scratch/models/height32"
+RESULTS = pathlib.Path(__file__).resolve().parent.parent / "results/lafan1_cpu"
+MODEL = RESULTS / "scratch/models/height32"
+BEST = RESULTS / "mixed_lengths/models/mixed_either_fvel16"
 TOL_CM = 1e-4
 
 
@@ -17,9 +20,7 @@ def model():
     return trained_model.load_model(MODEL)
 
 
-def test_committed_model_loads_and_its_samples_end_on_the_keyframes(model):
-    assert model.source.endswith("step 8000") and model.config.name == "lafan1_cpu"
-    assert model.config.loss.foot_skate_contacts == "height"
+def _samples_end_on_the_keyframes_and_differ(model):
     take = bvh.load(sample.sample_files(["subject5"])[0])
     start, target = take[99:101], take[130:132]  # keyframes 100 and 130: L = 29
     samples = inbetween.inbetween(model, start, target, 29, num_samples=3, seed=0)
@@ -31,6 +32,20 @@ def test_committed_model_loads_and_its_samples_end_on_the_keyframes(model):
         assert np.abs(g[0] - ends[0]).max() < TOL_CM and np.abs(g[-1] - ends[1]).max() < TOL_CM
         generated.append(g[1:-1])
     assert np.abs(generated[0] - generated[1]).max() > 1.0  # cm: the samples differ
+
+
+def test_committed_model_loads_and_its_samples_end_on_the_keyframes(model):
+    assert model.source.endswith("step 8000") and model.config.name == "lafan1_cpu"
+    assert model.config.loss.foot_skate_contacts == "height"
+    _samples_end_on_the_keyframes_and_differ(model)
+
+
+def test_best_committed_model_loads_and_its_samples_end_on_the_keyframes():
+    best = trained_model.load_model(BEST)
+    assert best.source.endswith("step 16600") and best.config.name == "lafan1_cpu"
+    assert best.config.train.length_after_schedule == "uniform"
+    assert best.config.loss.foot_skate_contacts == "height_either" and best.config.loss.foot_velocity_weight == 16
+    _samples_end_on_the_keyframes_and_differ(best)
 
 
 def test_committed_model_beats_interpolation_on_the_bundled_test_windows(model):
