@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|train|train_long|finetune|evaluate|evaluate_long|
+# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -196,10 +196,18 @@ case "${1:-}" in
     ;;
   scratch_mixed)  # lafan1_cpu from scratch with what the fine-tunes above found, from step 0: every length after the
     # schedule, the foot-skate term on either end's height at 128, the foot velocity term at 16; alone on the 2
-    # cores (nice -n 10), stopped by SIGTERM when the time was up (the step is in results/README.md)
-    bin/train --config lafan1_cpu --workdir runs/scratch_mixed --data "$DATA" --no-progress --max-steps 16000 \
-      train.length_after_schedule=uniform loss.foot_skate_contacts=height_either loss.foot_skate_weight=128 \
-      loss.foot_velocity_weight=16
+    # cores (nice -n 10). Stopped by SIGTERM at step 4616 and resumed (same state: tests/test_train.py) with the
+    # learning rate decaying from step 6000 to 0.05 x at 14000, to step 16000
+    RUN="--config lafan1_cpu --workdir runs/scratch_mixed --data $DATA --no-progress --max-steps 16000"
+    RECIPE="train.length_after_schedule=uniform loss.foot_skate_contacts=height_either loss.foot_skate_weight=128"
+    RECIPE="$RECIPE loss.foot_velocity_weight=16"
+    bin/train $RUN $RECIPE
+    bin/train $RUN $RECIPE train.lr_decay_to=0.05 train.lr_decay_from_step=6000 train.lr_decay_until_step=14000
+    ;;
+  evaluate_scratch_mixed)  # as evaluate_mixed_lengths, then every length
+    evaluate_runs scratch_mixed scratch_mixed
+    bin/evaluate model --checkpoint runs/scratch_mixed --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+      --noise-scales 0 --json $OUT/scratch_mixed/scratch_mixed_all_lengths.json
     ;;
   evaluate_mixed_lengths)  # as evaluate_from_decay512
     evaluate_runs mixed_lengths mixed512 mixed_either512 mixed_either_fvel16
