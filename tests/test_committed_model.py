@@ -1,7 +1,8 @@
-"""The models committed in results/: the reproduction model (results/README.md, `lafan1_cpu/scratch/`) and the
-best fine-tune (`lafan1_cpu/mixed_lengths/`). Today's code loads them and their transitions end exactly on the
-keyframes; on the bundled subject5 windows the reproduction model still beats interpolation where the full
-evaluation says it does (ADE and NPSS at L = 30 and 50)."""
+"""The models committed in results/: the reproduction model (results/README.md, `lafan1_cpu/scratch/`), the
+best fine-tune (`lafan1_cpu/mixed_lengths/`) and its recipe from scratch (`lafan1_cpu/scratch_mixed/`). Today's
+code loads them and their transitions end exactly on the keyframes; on the bundled subject5 windows the
+reproduction model still beats interpolation where the full evaluation says it does (ADE and NPSS at L = 30
+and 50)."""
 import pathlib
 
 import numpy as np
@@ -12,6 +13,7 @@ from stitchjax import bvh, evaluate, inbetween, lafan1, sample, trained_model
 RESULTS = pathlib.Path(__file__).resolve().parent.parent / "results/lafan1_cpu"
 MODEL = RESULTS / "scratch/models/height32"
 BEST = RESULTS / "mixed_lengths/models/mixed_either_fvel16"
+FROM_SCRATCH = RESULTS / "scratch_mixed/models/scratch_mixed"
 TOL_CM = 1e-4
 
 
@@ -46,6 +48,13 @@ def test_best_committed_model_loads_and_its_samples_end_on_the_keyframes():
     assert best.config.train.length_after_schedule == "uniform"
     assert best.config.loss.foot_skate_contacts == "height_either" and best.config.loss.foot_velocity_weight == 16
     _samples_end_on_the_keyframes_and_differ(best)
+
+
+def test_from_scratch_recipe_model_loads_and_its_samples_end_on_the_keyframes():
+    recipe = trained_model.load_model(FROM_SCRATCH)
+    assert recipe.source.endswith("step 16000") and recipe.config.train.length_after_schedule == "uniform"
+    assert recipe.config.loss.foot_skate_weight == 128 and recipe.config.loss.foot_velocity_weight == 16
+    _samples_end_on_the_keyframes_and_differ(recipe)
 
 
 def test_committed_model_beats_interpolation_on_the_bundled_test_windows(model):
