@@ -17,11 +17,15 @@ import json
 import pathlib
 import sys
 
+REPO = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from stitchjax import reporting  # noqa: E402
+
 
 def read_rows(path: pathlib.Path) -> list[dict]:
     """The records of one metrics.jsonl that carry `time_s`, in file order."""
-    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-    return [r for r in rows if "time_s" in r]
+    return [r for r in reporting.read_metrics(path) if "time_s" in r]
 
 
 def with_loop_time(rows: list[dict]) -> list[tuple[dict, float]]:
@@ -59,7 +63,7 @@ def lineage(paths: list[pathlib.Path], length: int) -> dict:
             won = beats(row, length)
             if won.get("npss") and first["npss"] is None:
                 first["npss"] = {"step": row["step"], "wall_s": offset + t, "file": str(path)}
-            if won and all(won.values()) and len(won) == 2 and first["both"] is None:
+            if len(won) == 2 and all(won.values()) and first["both"] is None:
                 first["both"] = {"step": row["step"], "wall_s": offset + t, "file": str(path),
                                  **{k: row[k] for k in row if k.startswith("val_") and f"_L{length}" in k}}
         seconds = timed[-1][1] if timed else 0.0

@@ -267,9 +267,9 @@ def near_keyframe_weights(num_steps: int, weight: float, frames: int):
     (``loss.near_keyframe_weight``) on the first ``frames`` generated frames, the ones next to the keyframe
     the direction starts from (the backward direction's first is the transition's last frame, which SLDE
     scores), 1 on the others. The terms stay weighted means over frames."""
-    if weight < 0 or frames < 0:
-        raise ValueError(f"loss.near_keyframe_weight and loss.near_keyframe_frames must be >= 0, got {weight}, "
-                         f"{frames}")
+    if weight < 0 or frames < 1:  # frames 0 would make the weight do nothing
+        raise ValueError(f"loss.near_keyframe_weight must be >= 0 and loss.near_keyframe_frames >= 1, got "
+                         f"{weight}, {frames}")
     return jnp.where(jnp.arange(num_steps) < frames, jnp.float32(weight), jnp.float32(1.0))
 
 

@@ -278,6 +278,8 @@ def test_near_keyframe_weight_reweighs_only_the_frames_next_to_the_keyframes(set
     np.testing.assert_array_equal(losses.near_keyframe_weights(5, 4.0, 2), [4, 4, 1, 1, 1])
     with pytest.raises(ValueError, match="near_keyframe_weight"):
         terms(["loss.near_keyframe_weight=-1"], batch)
+    with pytest.raises(ValueError, match="near_keyframe_frames"):  # a weight on no frame is refused, not ignored
+        terms(["loss.near_keyframe_weight=8", "loss.near_keyframe_frames=0"], batch)
 
 
 @pytest.mark.parametrize("rho", [0.5, 0.9])
