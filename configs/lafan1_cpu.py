@@ -18,8 +18,8 @@ every command in results/lafan1_cpu/run.sh): the foot-skate term on either end's
 (`loss.foot_skate_contacts=height_either`), the foot velocity term at 16, the learning rate decayed, and every
 length drawn after the schedule (`train.length_after_schedule=uniform`: 14 % less foot slide than L = 50 alone).
 Those were measured as fine-tunes, and then together from scratch (`scratch_mixed`: 16000 steps, 4200 s alone
-on 2 cores; below interpolation on ADE and NPSS at every length, results/README.md); the defaults here stay
-those of the `scratch` runs, whose commands rely on them.
+on 2 cores; below interpolation on ADE and NPSS at every length, results/README.md): that recipe is the config
+`lafan1_cpu_mixed`. The defaults here stay those of the `scratch` runs, whose commands rely on them.
 """
 import dataclasses
 import pathlib

@@ -5,11 +5,12 @@ Every ``train.eval_every`` steps the current generators sample ``train.eval_samp
 windows every time) at each length of ``train.eval_lengths``, with z from the prior as at inference, and
 ``stitchjax.evaluate.evaluate_protocol`` scores them. One validation record goes to metrics.jsonl:
 
-    {"step": 500, "val_ade_L30": ..., "val_npss_L30": ..., "val_foot_slide_L30": ..., "val_apd_L30": ...,
+    {"step": 500, "val_ade_L30": ..., "val_slde_L30": ..., "val_npss_L30": ..., "val_foot_slide_L30": ...,
+     "val_apd_L30": ...,
      "val_ade_L30_interp": ..., ..., "val_s": seconds it took}
 
 ``*_interp`` is the interpolation baseline on the same windows (computed once), so ``loss_curves.png`` shows
-in one panel per metric when the model starts to beat it. Units: ADE and APD in metres, foot slide in
+in one panel per metric when the model starts to beat it. Units: ADE, SLDE and APD in metres, foot slide in
 cm/frame, NPSS unitless (``evaluate._units``).
 """
 from __future__ import annotations
@@ -23,7 +24,7 @@ from stitchjax import datasets, evaluate, trained_model
 
 __all__ = ["METRICS", "validation_windows", "make_validator"]
 
-METRICS = ("ade", "npss", "foot_slide", "apd")
+METRICS = ("ade", "slde", "npss", "foot_slide", "apd")
 
 
 def validation_windows(windows, count: int):

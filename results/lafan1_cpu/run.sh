@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
-# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|train|train_long|finetune|evaluate|evaluate_long|
+# Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
+#        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -8,6 +9,9 @@ DATA=${DATA:-../shared/data/lafan1}
 OUT=results/lafan1_cpu
 # The runs before "scratch" were made when lafan1_cpu had no prior samples and no foot-skate term:
 BEFORE="loss.prior_sample_fraction=0 loss.foot_skate_weight=0"
+# What the fine-tunes found, from step 0 in scratch_mixed (with a learning-rate decay: the config lafan1_cpu_mixed):
+RECIPE="train.length_after_schedule=uniform loss.foot_skate_contacts=height_either loss.foot_skate_weight=128"
+RECIPE="$RECIPE loss.foot_velocity_weight=16"
 evaluate_runs() {  # evaluate_runs FOLDER RUN...: L = 30 and 50 at noise x0, x1 and x1.5 and where the error is
   # along the transition (results/error_frames.py, L = 30) for each runs/RUN, into $OUT/FOLDER
   local folder=$1; shift
@@ -197,12 +201,48 @@ case "${1:-}" in
   scratch_mixed)  # lafan1_cpu from scratch with what the fine-tunes above found, from step 0: every length after the
     # schedule, the foot-skate term on either end's height at 128, the foot velocity term at 16; alone on the 2
     # cores (nice -n 10). Stopped by SIGTERM at step 4616 and resumed (same state: tests/test_train.py) with the
-    # learning rate decaying from step 6000 to 0.05 x at 14000, to step 16000
+    # learning rate decaying from step 6000 to 0.05 x at 14000, to step 16000 (the config lafan1_cpu_mixed)
     RUN="--config lafan1_cpu --workdir runs/scratch_mixed --data $DATA --no-progress --max-steps 16000"
-    RECIPE="train.length_after_schedule=uniform loss.foot_skate_contacts=height_either loss.foot_skate_weight=128"
-    RECIPE="$RECIPE loss.foot_velocity_weight=16"
     bin/train $RUN $RECIPE
     bin/train $RUN $RECIPE train.lr_decay_to=0.05 train.lr_decay_from_step=6000 train.lr_decay_until_step=14000
+    ;;
+  scratch_mixed_none)  # the same recipe with the posterior "none" (the paper's model: z from the prior heads at
+    # training too), in one go (the learning-rate schedule is a function of the step), for the like-for-like
+    # ablation; beside from_scratch_mixed on the same 2 cores (nice -n 10)
+    bin/train --config lafan1_cpu --workdir runs/scratch_mixed_none --data "$DATA" --no-progress --max-steps 16000 \
+      $RECIPE train.lr_decay_to=0.05 train.lr_decay_from_step=6000 train.lr_decay_until_step=14000 model.posterior=none
+    ;;
+  from_scratch_mixed)  # three continuations of scratch_mixed/models/scratch_mixed (step 16000) to step 18400, side
+    # by side with scratch_mixed_none (nice -n 10), the learning rate from 1e-4 down to 2.5e-5 (where
+    # scratch_mixed stopped): sm_cont changes nothing (the control); sm_fb4 raises free bits from 1 to 4 nats per
+    # frame (the posterior must carry more, to buy spread); sm_near8 weighs each direction's first two generated
+    # frames x8 (SLDE)
+    FT="--config lafan1_cpu --data $DATA --no-progress --init-from $OUT/scratch_mixed/models/scratch_mixed"
+    FT="$FT --max-steps 18400"
+    LR="train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=16000 train.lr_decay_until_step=18400"
+    bin/train $FT --workdir runs/sm_cont $LR $RECIPE &
+    bin/train $FT --workdir runs/sm_fb4 $LR $RECIPE loss.free_bits=4 &
+    bin/train $FT --workdir runs/sm_near8 $LR $RECIPE loss.near_keyframe_weight=8 loss.near_keyframe_frames=2 &
+    wait
+    ;;
+  evaluate_scratch_mixed_none)  # as evaluate_scratch_mixed; then for it and scratch_mixed the latent-pair search at
+    # every length, and L = 50 at noise x2-x8 (diversity at equal quality)
+    evaluate_runs scratch_mixed scratch_mixed_none
+    bin/evaluate model --checkpoint runs/scratch_mixed_none --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+      --noise-scales 0 --json $OUT/scratch_mixed/scratch_mixed_none_all_lengths.json
+    for run in scratch_mixed scratch_mixed_none; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 --search 4 \
+        --noise-scales "" --json $OUT/scratch_mixed/${run}_search4.json
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 50 --noise-scales 2,3,4,6,8 \
+        --json $OUT/scratch_mixed/${run}_noise_sweep_L50.json
+    done
+    ;;
+  evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
+    evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
+    for run in sm_cont sm_fb4 sm_near8; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+        --noise-scales 0 --json $OUT/from_scratch_mixed/${run}_all_lengths.json
+    done
     ;;
   evaluate_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs scratch_mixed scratch_mixed
