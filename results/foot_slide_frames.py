@@ -22,7 +22,7 @@ import numpy as np
 REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from stitchjax import evaluate, lafan1, metrics, rollout, skeleton, trained_model  # noqa: E402
+from stitchjax import evaluate, lafan1, metrics, plots, rollout, skeleton, trained_model  # noqa: E402
 from stitchjax.skeleton import forward_kinematics  # noqa: E402
 
 
@@ -90,20 +90,12 @@ def main(argv=None) -> int:
         {"checkpoint": str(args.checkpoint), "length": length, "windows": int(len(windows.rotations)),
          "samples_noise1": args.samples, "units": "cm/frame, entry t = frame t to t + 1",
          "curves": {k: [round(float(x), 4) for x in v] for k, v in curves.items()}}, indent=1) + "\n")
-    import matplotlib  # reason: only for the figure
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(7, 3.5))
-    for name, curve in curves.items():
-        ax.plot(np.arange(length + 1) + 0.5, curve, label=name)
     h, k, _, _ = (int(x) for x in rollout.schedule(model.config, length))
-    ax.axvspan(h - k + 1, h + k, color="grey", alpha=0.15, label=f"stitch overlap (frames {h - k + 1}-{h + k})")
-    ax.set_xlabel("transition frame (0 = start keyframe)")
-    ax.set_ylabel("foot slide (cm/frame)")
-    ax.set_title(f"Foot slide along the transition, L = {length}, {len(windows.rotations)} windows")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(stem.with_suffix(".png"), dpi=120)
+    plots.error_over_time(curves, first_frame=0, ylabel="foot slide (cm/frame)",
+                          xlabel="step from transition frame t to t + 1 (0 = start keyframe)", figsize=(7.0, 3.5),
+                          dpi=120, path=stem.with_suffix(".png"),
+                          title=f"Foot slide along the transition, L = {length}, {len(windows.rotations)} windows "
+                                f"(stitch overlap: frames {h - k + 1}-{h + k})")
     print(f"wrote {stem}.json and {stem}.png")
     return 0
 

@@ -1,6 +1,7 @@
 """The models committed in results/: the reproduction model (results/README.md, `lafan1_cpu/scratch/`), the
-best fine-tune (`lafan1_cpu/mixed_lengths/`) and its recipe from scratch (`lafan1_cpu/scratch_mixed/`, the config
-`lafan1_cpu_mixed`). Today's
+best fine-tune (`lafan1_cpu/mixed_lengths/`), its recipe from scratch (`lafan1_cpu/scratch_mixed/`, the config
+`lafan1_cpu_mixed`) and that model continued with the frames next to the keyframes weighted
+(`lafan1_cpu/from_scratch_mixed/`). Today's
 code loads them and their transitions end exactly on the keyframes; on the bundled subject5 windows the
 reproduction model still beats interpolation where the full evaluation says it does (ADE and NPSS at L = 30
 and 50)."""
@@ -16,6 +17,7 @@ RESULTS = pathlib.Path(__file__).resolve().parent.parent / "results/lafan1_cpu"
 MODEL = RESULTS / "scratch/models/height32"
 BEST = RESULTS / "mixed_lengths/models/mixed_either_fvel16"
 FROM_SCRATCH = RESULTS / "scratch_mixed/models/scratch_mixed"
+NEAR_KEYFRAMES = RESULTS / "from_scratch_mixed/models/sm_near8"
 TOL_CM = 1e-4
 
 
@@ -57,6 +59,13 @@ def test_from_scratch_recipe_model_loads_and_its_samples_end_on_the_keyframes():
     assert recipe.source.endswith("step 16000") and recipe.config.train.length_after_schedule == "uniform"
     assert recipe.config.loss.foot_skate_weight == 128 and recipe.config.loss.foot_velocity_weight == 16
     _samples_end_on_the_keyframes_and_differ(recipe)
+
+
+def test_near_keyframe_model_loads_and_its_samples_end_on_the_keyframes():
+    near = trained_model.load_model(NEAR_KEYFRAMES)
+    assert near.source.endswith("step 18400") and near.config.loss.near_keyframe_weight == 8
+    assert near.config.loss.near_keyframe_frames == 2 and near.config.loss.foot_skate_weight == 128
+    _samples_end_on_the_keyframes_and_differ(near)
 
 
 def test_the_recipe_config_is_the_config_of_the_from_scratch_recipe_model():
