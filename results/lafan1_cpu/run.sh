@@ -236,6 +236,10 @@ case "${1:-}" in
       bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 50 --noise-scales 2,3,4,6,8 \
         --json $OUT/scratch_mixed/${run}_noise_sweep_L50.json
     done
+    for scale in 1 6; do  # filmstrips at the paper's temperature and at the highest one still below interpolation
+      python results/figures.py --checkpoint $OUT/scratch_mixed/models/scratch_mixed --data "$DATA" \
+        --out $OUT/scratch_mixed/figures --no-notebook --noise-scale $scale
+    done
     ;;
   evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
