@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
-#        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|train|train_long|finetune|evaluate|evaluate_long|
+#        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -240,6 +240,15 @@ case "${1:-}" in
       python results/figures.py --checkpoint $OUT/scratch_mixed/models/scratch_mixed --data "$DATA" \
         --out $OUT/scratch_mixed/figures --no-notebook --noise-scale $scale
     done
+    ;;
+  near32)  # sm_near8 (step 18400) continued to step 20800 with the weight near the keyframes at 32, the same
+    # learning-rate profile (1e-4 down to 2.5e-5); alone at nice -n 5 after a test run; then every length
+    bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/sm_near8 \
+      --max-steps 20800 --workdir runs/sm_near32 train.learning_rate=1e-4 train.lr_decay_to=0.25 \
+      train.lr_decay_from_step=18400 train.lr_decay_until_step=20800 $RECIPE loss.near_keyframe_weight=32 \
+      loss.near_keyframe_frames=2
+    bin/evaluate model --checkpoint runs/sm_near32 --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+      --noise-scales 0 --json $OUT/from_scratch_mixed/sm_near32_all_lengths.json
     ;;
   evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
