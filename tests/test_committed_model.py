@@ -1,10 +1,9 @@
 """The models committed in results/: the reproduction model (results/README.md, `lafan1_cpu/scratch/`), the
 best fine-tune (`lafan1_cpu/mixed_lengths/`), its recipe from scratch (`lafan1_cpu/scratch_mixed/`, the config
 `lafan1_cpu_mixed`) and that model continued with the frames next to the keyframes weighted
-(`lafan1_cpu/from_scratch_mixed/`). Today's
-code loads them and their transitions end exactly on the keyframes; on the bundled subject5 windows the
-reproduction model still beats interpolation where the full evaluation says it does (ADE and NPSS at L = 30
-and 50)."""
+(`lafan1_cpu/from_scratch_mixed/`). Today's code loads them and their transitions end exactly on the keyframes;
+on the bundled subject5 windows the reproduction model still beats interpolation where the full evaluation says
+it does (ADE and NPSS at L = 30 and 50)."""
 import dataclasses
 import pathlib
 
@@ -54,8 +53,12 @@ def test_best_committed_model_loads_and_its_samples_end_on_the_keyframes():
     _samples_end_on_the_keyframes_and_differ(best)
 
 
-def test_from_scratch_recipe_model_loads_and_its_samples_end_on_the_keyframes():
-    recipe = trained_model.load_model(FROM_SCRATCH)
+@pytest.fixture(scope="module")
+def recipe():
+    return trained_model.load_model(FROM_SCRATCH)
+
+
+def test_from_scratch_recipe_model_loads_and_its_samples_end_on_the_keyframes(recipe):
     assert recipe.source.endswith("step 16000") and recipe.config.train.length_after_schedule == "uniform"
     assert recipe.config.loss.foot_skate_weight == 128 and recipe.config.loss.foot_velocity_weight == 16
     _samples_end_on_the_keyframes_and_differ(recipe)
@@ -68,12 +71,12 @@ def test_near_keyframe_model_loads_and_its_samples_end_on_the_keyframes():
     _samples_end_on_the_keyframes_and_differ(near)
 
 
-def test_the_recipe_config_is_the_config_of_the_from_scratch_recipe_model():
-    saved = trained_model.load_model(FROM_SCRATCH).config  # trained as lafan1_cpu with overrides, --max-steps 16000
-    recipe = config.load_config("lafan1_cpu_mixed")
-    assert recipe.train.max_steps == 16000 and recipe != config.load_config("lafan1_cpu")
+def test_the_recipe_config_is_the_config_of_the_from_scratch_recipe_model(recipe):
+    saved = recipe.config  # trained as lafan1_cpu with overrides and --max-steps 16000
+    mixed = config.load_config("lafan1_cpu_mixed")
+    assert mixed.train.max_steps == 16000 and mixed != config.load_config("lafan1_cpu")
     same = lambda c: dataclasses.replace(c, name="", train=dataclasses.replace(c.train, max_steps=0))
-    assert same(recipe) == same(saved)
+    assert same(mixed) == same(saved)
 
 
 def test_committed_model_beats_interpolation_on_the_bundled_test_windows(model):
