@@ -1,7 +1,8 @@
 """The models committed in results/: the reproduction model (results/README.md, `lafan1_cpu/scratch/`), the
 best fine-tune (`lafan1_cpu/mixed_lengths/`), its recipe from scratch (`lafan1_cpu/scratch_mixed/`, the config
 `lafan1_cpu_mixed`) and that model continued with the frames next to the keyframes weighted
-(`lafan1_cpu/from_scratch_mixed/`). Today's code loads them and their transitions end exactly on the keyframes;
+(`lafan1_cpu/from_scratch_mixed/`: `sm_near8`, and `n64_more`, below interpolation on every figure at every
+length). Today's code loads them and their transitions end exactly on the keyframes;
 on the bundled subject5 windows the reproduction model still beats interpolation where the full evaluation says
 it does (ADE and NPSS at L = 30 and 50)."""
 import dataclasses
@@ -17,6 +18,7 @@ MODEL = RESULTS / "scratch/models/height32"
 BEST = RESULTS / "mixed_lengths/models/mixed_either_fvel16"
 FROM_SCRATCH = RESULTS / "scratch_mixed/models/scratch_mixed"
 NEAR_KEYFRAMES = RESULTS / "from_scratch_mixed/models/sm_near8"
+BELOW_INTERPOLATION = RESULTS / "from_scratch_mixed/models/n64_more"
 TOL_CM = 1e-4
 
 
@@ -69,6 +71,14 @@ def test_near_keyframe_model_loads_and_its_samples_end_on_the_keyframes():
     assert near.source.endswith("step 18400") and near.config.loss.near_keyframe_weight == 8
     assert near.config.loss.near_keyframe_frames == 2 and near.config.loss.foot_skate_weight == 128
     _samples_end_on_the_keyframes_and_differ(near)
+
+
+def test_model_below_interpolation_loads_and_its_samples_end_on_the_keyframes():
+    model = trained_model.load_model(BELOW_INTERPOLATION)
+    assert model.source.endswith("step 28000") and model.config.loss.near_keyframe_weight == 64
+    assert model.config.loss.near_keyframe_frames == 2 and model.config.loss.foot_skate_weight == 128
+    assert model.config.train.length_after_schedule == "uniform"
+    _samples_end_on_the_keyframes_and_differ(model)
 
 
 def test_the_recipe_config_is_the_config_of_the_from_scratch_recipe_model(recipe):

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
-#        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|train|train_long|finetune|evaluate|evaluate_long|
+#        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -249,6 +249,42 @@ case "${1:-}" in
       loss.near_keyframe_frames=2
     bin/evaluate model --checkpoint runs/sm_near32 --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
       --noise-scales 0 --json $OUT/from_scratch_mixed/sm_near32_all_lengths.json
+    ;;
+  near32_skate)  # runs/sm_near32 (step 20800, from near32) continued to step 23200, three side by side
+    # (nice -n 10), the same learning-rate profile: n32_cont changes nothing (the control); n32_skate256 doubles the foot-skate weight
+    # (foot slide at L = 45 / 50); n64_skate256 also doubles the weight near the keyframes (SLDE at L = 45 / 50)
+    FT="--config lafan1_cpu --data $DATA --no-progress --init-from runs/sm_near32 --max-steps 23200"
+    LR="train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=20800 train.lr_decay_until_step=23200"
+    NEAR="loss.near_keyframe_frames=2 loss.near_keyframe_weight"
+    bin/train $FT --workdir runs/n32_cont $LR $RECIPE $NEAR=32 &
+    bin/train $FT --workdir runs/n32_skate256 $LR $RECIPE $NEAR=32 loss.foot_skate_weight=256 &
+    bin/train $FT --workdir runs/n64_skate256 $LR $RECIPE $NEAR=64 loss.foot_skate_weight=256 &
+    wait
+    for run in n32_cont n32_skate256 n64_skate256; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+        --noise-scales 0 --json $OUT/from_scratch_mixed/${run}_all_lengths.json
+    done
+    ;;
+  near64)  # runs/n32_cont (step 23200, from near32_skate) continued to step 25600, two side by side
+    # (nice -n 10), the same learning-rate profile: n32_cont2 changes nothing (the control); n64 doubles the weight near the keyframes (SLDE at L = 45)
+    FT="--config lafan1_cpu --data $DATA --no-progress --init-from runs/n32_cont --max-steps 25600"
+    LR="train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=23200 train.lr_decay_until_step=25600"
+    NEAR="loss.near_keyframe_frames=2 loss.near_keyframe_weight"
+    bin/train $FT --workdir runs/n32_cont2 $LR $RECIPE $NEAR=32 &
+    bin/train $FT --workdir runs/n64 $LR $RECIPE $NEAR=64 &
+    wait
+    for run in n32_cont2 n64; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+        --noise-scales 0 --json $OUT/from_scratch_mixed/${run}_all_lengths.json
+    done
+    ;;
+  near64_more)  # runs/n64 (step 25600, from near64) continued to step 28000 with nothing changed, alone at
+    # nice -n 5, the same learning-rate profile; then every length
+    bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from runs/n64 --max-steps 28000 \
+      --workdir runs/n64_more train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=25600 \
+      train.lr_decay_until_step=28000 $RECIPE loss.near_keyframe_frames=2 loss.near_keyframe_weight=64
+    bin/evaluate model --checkpoint runs/n64_more --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+      --noise-scales 0 --json $OUT/from_scratch_mixed/n64_more_all_lengths.json
     ;;
   evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
