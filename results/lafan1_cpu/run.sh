@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
-#        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|train|train_long|finetune|evaluate|evaluate_long|
+#        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -285,6 +285,18 @@ case "${1:-}" in
       train.lr_decay_until_step=28000 $RECIPE loss.near_keyframe_frames=2 loss.near_keyframe_weight=64
     bin/evaluate model --checkpoint runs/n64_more --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
       --noise-scales 0 --json $OUT/from_scratch_mixed/n64_more_all_lengths.json
+    ;;
+  evaluate_n64_more)  # the committed n64_more: L = 45 at two more sampling seeds, and L = 50 at noise x2-x8
+    # (diversity at equal quality, as evaluate_scratch_mixed_none)
+    M=$OUT/from_scratch_mixed/models/n64_more
+    for seed in 1 2; do
+      bin/evaluate model --checkpoint $M --data "$DATA" --samples 10 --lengths 45 --noise-scales "" --seed $seed \
+        --json $OUT/from_scratch_mixed/n64_more_L45_seed$seed.json
+    done
+    bin/evaluate model --checkpoint $M --data "$DATA" --samples 10 --lengths 50 --noise-scales 2,3,4,6,8 \
+      --json $OUT/from_scratch_mixed/n64_more_noise_sweep_L50.json
+    bin/evaluate model --checkpoint $M --data "$DATA" --samples 10 --lengths 10,15,30,45,50 --noise-scales 2 \
+      --json $OUT/from_scratch_mixed/n64_more_noise2_all_lengths.json
     ;;
   evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
