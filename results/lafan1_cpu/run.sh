@@ -297,6 +297,10 @@ case "${1:-}" in
       --json $OUT/from_scratch_mixed/n64_more_noise_sweep_L50.json
     bin/evaluate model --checkpoint $M --data "$DATA" --samples 10 --lengths 10,15,30,45,50 --noise-scales 2 \
       --json $OUT/from_scratch_mixed/n64_more_noise2_all_lengths.json
+    for scale in 1 2; do  # filmstrips at the paper's temperature and at x2
+      python results/figures.py --checkpoint $M --data "$DATA" --out $OUT/from_scratch_mixed/figures --no-notebook \
+        --noise-scale $scale
+    done
     ;;
   evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
