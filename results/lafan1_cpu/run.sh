@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
-#        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|train|train_long|finetune|evaluate|evaluate_long|
+#        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|recon25_n64|train|train_long|finetune|evaluate|evaluate_long|
 #        evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
@@ -301,6 +301,15 @@ case "${1:-}" in
       python results/figures.py --checkpoint $M --data "$DATA" --out $OUT/from_scratch_mixed/figures --no-notebook \
         --noise-scale $scale
     done
+    ;;
+  recon25_n64)  # the committed n64_more (step 28000) continued to step 30400 with the prior windows' state and FK
+    # terms weighted 0.25 (spread), alone, the same learning-rate profile; then every length
+    bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/n64_more \
+      --max-steps 30400 --workdir runs/n64_recon25 train.learning_rate=1e-4 train.lr_decay_to=0.25 \
+      train.lr_decay_from_step=28000 train.lr_decay_until_step=30400 $RECIPE loss.near_keyframe_frames=2 \
+      loss.near_keyframe_weight=64 loss.prior_sample_reconstruction_weight=0.25
+    bin/evaluate model --checkpoint runs/n64_recon25 --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+      --noise-scales 0 --json $OUT/from_scratch_mixed/n64_recon25_all_lengths.json
     ;;
   evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
