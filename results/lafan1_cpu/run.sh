@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
-#        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|recon25_n64|train|train_long|finetune|evaluate|evaluate_long|
-#        evaluate_finetune|figures
+#        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
+#        recon25_n64|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -21,6 +21,18 @@ evaluate_runs() {  # evaluate_runs FOLDER RUN...: L = 30 and 50 at noise x0, x1 
     python results/error_frames.py --checkpoint runs/$run --data "$DATA" --length 30 \
       --out $OUT/$folder/error_frames_$run
   done
+}
+all_lengths() {  # all_lengths FOLDER RUN...: every length of the protocol at noise x1 and x0 for each runs/RUN,
+  # into $OUT/FOLDER/RUN_all_lengths.json
+  local folder=$1; shift
+  for run in "$@"; do
+    bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+      --noise-scales 0 --json $OUT/$folder/${run}_all_lengths.json
+  done
+}
+fine_tune_lr() {  # fine_tune_lr FROM UNTIL: the fine-tunes' learning rate, 1e-4 decaying to 2.5e-5 from step FROM
+  # to step UNTIL
+  echo "train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=$1 train.lr_decay_until_step=$2"
 }
 case "${1:-}" in
   scratch)  # the reproduction from scratch with prior samples and the foot-skate term from step 0 (configs/lafan1_cpu.py),
@@ -219,7 +231,7 @@ case "${1:-}" in
     # frames x8 (SLDE)
     FT="--config lafan1_cpu --data $DATA --no-progress --init-from $OUT/scratch_mixed/models/scratch_mixed"
     FT="$FT --max-steps 18400"
-    LR="train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=16000 train.lr_decay_until_step=18400"
+    LR=$(fine_tune_lr 16000 18400)
     bin/train $FT --workdir runs/sm_cont $LR $RECIPE &
     bin/train $FT --workdir runs/sm_fb4 $LR $RECIPE loss.free_bits=4 &
     bin/train $FT --workdir runs/sm_near8 $LR $RECIPE loss.near_keyframe_weight=8 loss.near_keyframe_frames=2 &
@@ -228,8 +240,7 @@ case "${1:-}" in
   evaluate_scratch_mixed_none)  # as evaluate_scratch_mixed; then for it and scratch_mixed the latent-pair search at
     # every length, and L = 50 at noise x2-x8 (diversity at equal quality)
     evaluate_runs scratch_mixed scratch_mixed_none
-    bin/evaluate model --checkpoint runs/scratch_mixed_none --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-      --noise-scales 0 --json $OUT/scratch_mixed/scratch_mixed_none_all_lengths.json
+    all_lengths scratch_mixed scratch_mixed_none
     for run in scratch_mixed scratch_mixed_none; do
       bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 --search 4 \
         --noise-scales "" --json $OUT/scratch_mixed/${run}_search4.json
@@ -244,47 +255,40 @@ case "${1:-}" in
   near32)  # sm_near8 (step 18400) continued to step 20800 with the weight near the keyframes at 32, the same
     # learning-rate profile (1e-4 down to 2.5e-5); alone at nice -n 5 after a test run; then every length
     bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/sm_near8 \
-      --max-steps 20800 --workdir runs/sm_near32 train.learning_rate=1e-4 train.lr_decay_to=0.25 \
-      train.lr_decay_from_step=18400 train.lr_decay_until_step=20800 $RECIPE loss.near_keyframe_weight=32 \
+      --max-steps 20800 --workdir runs/sm_near32 $(fine_tune_lr 18400 20800) $RECIPE loss.near_keyframe_weight=32 \
       loss.near_keyframe_frames=2
-    bin/evaluate model --checkpoint runs/sm_near32 --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-      --noise-scales 0 --json $OUT/from_scratch_mixed/sm_near32_all_lengths.json
+    all_lengths from_scratch_mixed sm_near32
     ;;
   near32_skate)  # runs/sm_near32 (step 20800, from near32) continued to step 23200, three side by side
-    # (nice -n 10), the same learning-rate profile: n32_cont changes nothing (the control); n32_skate256 doubles the foot-skate weight
-    # (foot slide at L = 45 / 50); n64_skate256 also doubles the weight near the keyframes (SLDE at L = 45 / 50)
+    # (nice -n 10), the same learning-rate profile: n32_cont changes nothing (the control); n32_skate256 doubles
+    # the foot-skate weight (foot slide at L = 45 / 50); n64_skate256 also doubles the weight near the keyframes
+    # (SLDE at L = 45 / 50)
     FT="--config lafan1_cpu --data $DATA --no-progress --init-from runs/sm_near32 --max-steps 23200"
-    LR="train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=20800 train.lr_decay_until_step=23200"
+    LR=$(fine_tune_lr 20800 23200)
     NEAR="loss.near_keyframe_frames=2 loss.near_keyframe_weight"
     bin/train $FT --workdir runs/n32_cont $LR $RECIPE $NEAR=32 &
     bin/train $FT --workdir runs/n32_skate256 $LR $RECIPE $NEAR=32 loss.foot_skate_weight=256 &
     bin/train $FT --workdir runs/n64_skate256 $LR $RECIPE $NEAR=64 loss.foot_skate_weight=256 &
     wait
-    for run in n32_cont n32_skate256 n64_skate256; do
-      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-        --noise-scales 0 --json $OUT/from_scratch_mixed/${run}_all_lengths.json
-    done
+    all_lengths from_scratch_mixed n32_cont n32_skate256 n64_skate256
     ;;
   near64)  # runs/n32_cont (step 23200, from near32_skate) continued to step 25600, two side by side
-    # (nice -n 10), the same learning-rate profile: n32_cont2 changes nothing (the control); n64 doubles the weight near the keyframes (SLDE at L = 45)
+    # (nice -n 10), the same learning-rate profile: n32_cont2 changes nothing (the control); n64 doubles the
+    # weight near the keyframes (SLDE at L = 45)
     FT="--config lafan1_cpu --data $DATA --no-progress --init-from runs/n32_cont --max-steps 25600"
-    LR="train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=23200 train.lr_decay_until_step=25600"
+    LR=$(fine_tune_lr 23200 25600)
     NEAR="loss.near_keyframe_frames=2 loss.near_keyframe_weight"
     bin/train $FT --workdir runs/n32_cont2 $LR $RECIPE $NEAR=32 &
     bin/train $FT --workdir runs/n64 $LR $RECIPE $NEAR=64 &
     wait
-    for run in n32_cont2 n64; do
-      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-        --noise-scales 0 --json $OUT/from_scratch_mixed/${run}_all_lengths.json
-    done
+    all_lengths from_scratch_mixed n32_cont2 n64
     ;;
   near64_more)  # runs/n64 (step 25600, from near64) continued to step 28000 with nothing changed, alone at
     # nice -n 5, the same learning-rate profile; then every length
     bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from runs/n64 --max-steps 28000 \
-      --workdir runs/n64_more train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=25600 \
-      train.lr_decay_until_step=28000 $RECIPE loss.near_keyframe_frames=2 loss.near_keyframe_weight=64
-    bin/evaluate model --checkpoint runs/n64_more --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-      --noise-scales 0 --json $OUT/from_scratch_mixed/n64_more_all_lengths.json
+      --workdir runs/n64_more $(fine_tune_lr 25600 28000) $RECIPE loss.near_keyframe_frames=2 \
+      loss.near_keyframe_weight=64
+    all_lengths from_scratch_mixed n64_more
     ;;
   evaluate_n64_more)  # the committed n64_more: L = 45 at two more sampling seeds, and L = 50 at noise x2-x8
     # (diversity at equal quality, as evaluate_scratch_mixed_none)
@@ -305,23 +309,17 @@ case "${1:-}" in
   recon25_n64)  # the committed n64_more (step 28000) continued to step 30400 with the prior windows' state and FK
     # terms weighted 0.25 (spread), alone, the same learning-rate profile; then every length
     bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/n64_more \
-      --max-steps 30400 --workdir runs/n64_recon25 train.learning_rate=1e-4 train.lr_decay_to=0.25 \
-      train.lr_decay_from_step=28000 train.lr_decay_until_step=30400 $RECIPE loss.near_keyframe_frames=2 \
+      --max-steps 30400 --workdir runs/n64_recon25 $(fine_tune_lr 28000 30400) $RECIPE loss.near_keyframe_frames=2 \
       loss.near_keyframe_weight=64 loss.prior_sample_reconstruction_weight=0.25
-    bin/evaluate model --checkpoint runs/n64_recon25 --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-      --noise-scales 0 --json $OUT/from_scratch_mixed/n64_recon25_all_lengths.json
+    all_lengths from_scratch_mixed n64_recon25
     ;;
   evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
-    for run in sm_cont sm_fb4 sm_near8; do
-      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-        --noise-scales 0 --json $OUT/from_scratch_mixed/${run}_all_lengths.json
-    done
+    all_lengths from_scratch_mixed sm_cont sm_fb4 sm_near8
     ;;
   evaluate_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs scratch_mixed scratch_mixed
-    bin/evaluate model --checkpoint runs/scratch_mixed --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-      --noise-scales 0 --json $OUT/scratch_mixed/scratch_mixed_all_lengths.json
+    all_lengths scratch_mixed scratch_mixed
     ;;
   evaluate_mixed_lengths)  # as evaluate_from_decay512
     evaluate_runs mixed_lengths mixed512 mixed_either512 mixed_either_fvel16
@@ -411,6 +409,6 @@ case "${1:-}" in
     python results/placed_target.py --checkpoint runs/cvae_long --data "$DATA" --length 50 --out $OUT/placed_target
     python results/cmu_contacts.py --data ../shared/data/cmu --workdir runs/cmu --out results/cmu
     ;;
-  *) echo "usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures" >&2
+  *) sed -n 's/^# Usage: /usage: /p; s/^#        /    /p' "$0" >&2  # the usage lines at the top
      exit 2 ;;
 esac
