@@ -134,6 +134,12 @@ class LossConfig:
     # prior, whose z knows nothing of the ground truth they are scored against; at 1 the decoder learns to
     # make every prior sample the mean motion (the samples draw together), at 0 only the stitching,
     # adversarial and foot-skate terms hold them (losses.reconstruction_weights)
+    prior_best_of: int = 1  # reason: not in the paper (1 = off): > 1 rolls each prior window (the last
+    # round(prior_sample_fraction x B) of the batch) out this many times with independent noise, and the state
+    # and FK terms score only the copy closest to the ground truth, so the prior is taught to cover the
+    # motions rather than to average them (best of many samples, Bhattacharyya et al. 2018); every copy keeps
+    # the stitching, adversarial and foot terms. A step rolls out B + (K - 1) x round(f x B) windows
+    # (losses.prior_copies, losses.best_of_weights)
     foot_skate_weight: float = 0.0  # reason: not in the paper (0 = off): > 0 adds losses.foot_skate_loss, the
     # movement of the feet on frames where the ground truth has them in contact (datasets with fixed feet)
     foot_skate_contacts: str = "truth"  # reason: which feet the foot-skate term holds still. "truth": the

@@ -38,7 +38,7 @@ __all__ = [
     "lsgan_discriminator_loss", "disc_features", "direction_targets", "generator_loss", "gaussian_kl",
     "posterior_kl_loss", "kl_warmup", "reconstruction_weights", "near_keyframe_weights",
     "adversarial_generator_terms", "foot_skate_loss", "foot_height_contacts", "generator_rollouts",
-    "generator_objective",
+    "generator_objective", "prior_copies", "window_position_errors", "best_of_weights",
     "discriminator_loss",
 ]
 
@@ -273,6 +273,50 @@ def near_keyframe_weights(num_steps: int, weight: float, frames: int):
     return jnp.where(jnp.arange(num_steps) < frames, jnp.float32(weight), jnp.float32(1.0))
 
 
+def prior_copies(batch, loss_config, model_config):
+    """The windows a train step rolls out with ``loss.prior_best_of`` = K: (batch, prior_flags, num_prior).
+
+    With K > 1 the last num_prior = round(``loss.prior_sample_fraction`` x B) windows of the (shuffled) batch
+    draw z from the prior, and they are repeated K - 1 more times: the rows are the B - num_prior posterior
+    windows, then K blocks of the num_prior prior windows (B + (K - 1) num_prior rows); prior_flags (rows,)
+    bool marks the prior rows. With K = 1: (batch, None, 0), and prior_sample_fraction draws the prior
+    windows at random (``rollout.prior_sample_flags``).
+    """
+    best_of = loss_config.prior_best_of
+    if best_of < 1:
+        raise ValueError(f"loss.prior_best_of must be >= 1, got {best_of}")
+    if best_of == 1:
+        return batch, None, 0
+    batch_size = batch["rotations"].shape[0]
+    num_prior = int(round(loss_config.prior_sample_fraction * batch_size))
+    if model_config.posterior == "none" or num_prior == 0:
+        raise ValueError(f"loss.prior_best_of={best_of} repeats the windows that loss.prior_sample_fraction draws "
+                         f"from the prior, and this batch of {batch_size} has none: use a posterior and "
+                         "loss.prior_sample_fraction x train.batch_size >= 1, or leave loss.prior_best_of at 1")
+    copies = {name: jnp.concatenate([value] + [value[batch_size - num_prior:]] * (best_of - 1), axis=0)
+              for name, value in batch.items()}
+    flags = jnp.arange(batch_size + (best_of - 1) * num_prior) >= batch_size - num_prior
+    return copies, flags, num_prior
+
+
+def window_position_errors(positions, true_positions, mask):
+    """(B,) mean distance per joint between generated and true global positions (B, T, J, 3) over each
+    window's valid frames (mask (B, T)), in the positions' units."""
+    distance = jnp.mean(jnp.linalg.norm(positions - true_positions, axis=-1), axis=-1)
+    mask = mask.astype(distance.dtype)
+    return jnp.sum(distance * mask, axis=-1) / jnp.maximum(jnp.sum(mask, axis=-1), 1.0)
+
+
+def best_of_weights(errors, num_prior: int, best_of: int):
+    """(rows,) 0 / 1 weight of each row of :func:`prior_copies` in the state and FK terms: 1 on every
+    posterior window and on the copy of each prior window with the lowest error, 0 on its other copies
+    (ties go to the first). errors (rows,): :func:`window_position_errors`, not differentiated."""
+    num_posterior = errors.shape[0] - best_of * num_prior
+    copies = jax.lax.stop_gradient(errors[num_posterior:]).reshape(best_of, num_prior)
+    chosen = jax.nn.one_hot(jnp.argmin(copies, axis=0), best_of, dtype=jnp.float32).T.reshape(-1)
+    return jnp.concatenate([jnp.ones((num_posterior,), jnp.float32), chosen])
+
+
 def _direction_terms(out_dir, target, loss_config, data_config, posterior: str, window_weights=None):
     """Per-direction terms: "state" and its parts, "fk", "kl" (the KL that is reported), "kl_penalty" (what
     the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I))). window_weights: (B,) weights
@@ -326,27 +370,32 @@ def _overlap_stitching_loss(out, loss_config, data_config):
                           data_config.position_scale, loss_config.reduction)
 
 
-def generator_rollouts(params, phase_params, batch, key, config, length) -> tuple[dict, dict]:
+def generator_rollouts(params, phase_params, batch, key, config, length, prior_flags=None) -> tuple[dict, dict]:
     """The rollouts the generator objective scores: (out, sampled).
 
     out: ``rollout.rollout_batch`` of the batch, z from the posterior when ``model.posterior`` has one (the
     state, FK and KL terms); sampled: the motion the stitching and adversarial terms see, ``out`` itself
-    unless ``loss.prior_rollout`` adds a second rollout with z from the prior.
+    unless ``loss.prior_rollout`` adds a second rollout with z from the prior. prior_flags: (B,) bool, the
+    windows of ``out`` whose z comes from the prior (:func:`prior_copies`); None = drawn at random
+    (``loss.prior_sample_fraction``).
     """
     posterior_key, prior_key = jax.random.split(key)
-    out = rollout_lib.rollout_batch(params, phase_params, batch, posterior_key, config, length)
+    out = rollout_lib.rollout_batch(params, phase_params, batch, posterior_key, config, length,
+                                    prior_flags=prior_flags)
     if config.loss.prior_rollout and config.model.posterior != "none":
         return out, rollout_lib.rollout_batch(params, phase_params, batch, prior_key, config, length, posterior=False)
     return out, out
 
 
 def generator_objective(params, out, sampled, batch, length, loss_config, model_config, data_config,
-                        kl_scale=1.0):
+                        kl_scale=1.0, selected=None):
     """Generator objective (paper Eq. 9 without L_D) of the rollouts of :func:`generator_rollouts`.
 
     params: the discriminators' params {"disc_short", "disc_long"} (others ignored); batch: the ground truth;
     the config sections it reads: ``loss`` (weights), ``model`` (posterior, directions, discriminators) and
-    ``data`` (scales, dataset); kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`).
+    ``data`` (scales, dataset); kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`);
+    selected: (B,) weights of the windows in the state and FK terms on top of the reconstruction weights
+    (:func:`best_of_weights`), None = 1.
     Returns (total, terms, generated) as :func:`generator_loss`.
     """
     lc = loss_config
@@ -359,6 +408,8 @@ def generator_objective(params, out, sampled, batch, length, loss_config, model_
                              "loss.prior_sample_fraction draws from the prior: set loss.prior_sample_fraction > 0 "
                              "with a posterior, or leave the weight at 1")
         window_weights = reconstruction_weights(out["prior_sampled"], lc.prior_sample_reconstruction_weight)
+    if selected is not None:
+        window_weights = selected if window_weights is None else window_weights * selected
     terms = {}
     for name in directions:
         target = direction_targets(batch, length, n, name == "backward", data_config)
@@ -401,12 +452,29 @@ def generator_loss(params, phase_params, batch, key, config, length, kl_scale=1.
     Returns:
       (total, terms, generated): total scalar; terms dict of scalars "state", "kl", "kl_prior", "fk",
       "stitch", "adv_g", "adv_g_short", "adv_g_long", "rotation", "velocity", "contact" (and per-direction
-      "state_forward", ...; "foot_skate" with ``loss.foot_skate_weight``); generated = {"features" (B, T, F)
+      "state_forward", ...; "foot_skate" with ``loss.foot_skate_weight``; "prior_error_mean" and
+      "prior_error_best" with ``loss.prior_best_of`` > 1: the prior copies' mean distance per joint to the
+      ground truth, and that of the copies the state and FK terms score); generated = {"features" (B, T, F)
       stop-gradient discriminator input of the stitched motion the adversarial terms saw, "mask" (B, T)}
       for :func:`discriminator_loss`.
     """
-    out, sampled = generator_rollouts(params, phase_params, batch, key, config, length)
-    return generator_objective(params, out, sampled, batch, length, config.loss, config.model, config.data, kl_scale)
+    batch_size = batch["rotations"].shape[0]
+    batch, prior_flags, num_prior = prior_copies(batch, config.loss, config.model)
+    out, sampled = generator_rollouts(params, phase_params, batch, key, config, length, prior_flags)
+    if not num_prior:
+        return generator_objective(params, out, sampled, batch, length, config.loss, config.model, config.data,
+                                   kl_scale)
+    positions = out["global_positions"]
+    errors = window_position_errors(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"])
+    selected = best_of_weights(errors, num_prior, config.loss.prior_best_of)
+    total, terms, generated = generator_objective(params, out, sampled, batch, length, config.loss, config.model,
+                                                  config.data, kl_scale, selected)
+    prior_errors = jax.lax.stop_gradient(errors[batch_size - num_prior:])
+    chosen = selected[batch_size - num_prior:]
+    terms["prior_error_mean"] = jnp.mean(prior_errors)
+    terms["prior_error_best"] = jnp.sum(prior_errors * chosen) / num_prior
+    generated = {name: value[:batch_size] for name, value in generated.items()}  # the batch's own windows
+    return total, terms, generated
 
 
 def discriminator_loss(params, phase_params, batch, key, config, length, generated=None):

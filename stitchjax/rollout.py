@@ -494,14 +494,15 @@ def next_frame_states(batch: dict, length, num_steps: int, config) -> dict:
 
 
 def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, max_length: int | None = None,
-                  posterior: bool = True):
+                  posterior: bool = True, prior_flags=None):
     """:func:`rollout` vmapped over a batch dict (from ``features.prepare_dataset``, leading B).
 
     Keyframes: frame 0 and frame ``length + 1`` of each window; max_length defaults to T - 2.
     Per-example noise from ``jax.random.split(key, B)``. posterior: draw z from the posterior on the
     batch's ground truth (when ``model.posterior`` has one); False = from the prior, as at inference. With
     ``loss.prior_sample_fraction`` > 0 each window draws z from the prior instead with that probability
-    (:func:`prior_sample_flags`).
+    (:func:`prior_sample_flags`); prior_flags, a (B,) bool array, names those windows instead (with a
+    posterior; ``losses.prior_copies``).
     Returns rollout's dict with a leading B axis, and "prior_sampled" (B,) bool: the windows whose z came
     from the prior (every window with posterior=False or posterior "none").
     Differentiable in gen_params, phase_params and the batch; with ``train.weight_gradients_after_scan``
@@ -518,7 +519,9 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
     truth, use_prior = None, None
     if posterior and config.model.posterior != "none":
         truth = next_frame_states(batch, length, num_steps(config, max_length), config)
-        if config.loss.prior_sample_fraction != 0:  # prior_sample_flags refuses values outside [0, 1]
+        if prior_flags is not None:
+            use_prior = jnp.asarray(prior_flags, bool)
+        elif config.loss.prior_sample_fraction != 0:  # prior_sample_flags refuses values outside [0, 1]
             use_prior = prior_sample_flags(key, keys.shape[0], config.loss.prior_sample_fraction)
 
     def run(generators, inputs, constants, probes):

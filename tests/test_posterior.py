@@ -338,3 +338,43 @@ def test_noise_ramp_puts_the_frames_next_to_the_keyframes_on_the_mean_path():
     plain = [run(k, 0) for k in keys]  # without the ramp the first step already differs
     assert np.abs(np.asarray(plain[0]["forward"]["global_positions"][0])
                   - np.asarray(plain[1]["forward"]["global_positions"][0])).max() > 1e-4
+
+
+def test_prior_best_of_scores_only_the_copy_closest_to_the_ground_truth(setup):
+    """loss.prior_best_of = K: the last round(f B) windows are rolled out K times from the prior; the state and
+    FK terms score the posterior windows and, of each prior window, only its copy nearest the ground truth;
+    the discriminator sees the batch's own B windows; K = 1 is the random draw of prior_sample_fraction."""
+    config, params, phase_params, batch = setup
+    key = jax.random.PRNGKey(1)
+    size = batch["rotations"].shape[0]
+    best3 = C.apply_overrides(config, ["loss.prior_sample_fraction=0.5", "loss.prior_best_of=3"])
+    copies, flags, num_prior = losses.prior_copies(batch, best3.loss, best3.model)
+    assert num_prior == round(0.5 * size) and copies["rotations"].shape[0] == size + 2 * num_prior
+    np.testing.assert_array_equal(np.asarray(flags), np.arange(size + 2 * num_prior) >= size - num_prior)
+    for block in (1, 2):  # the repeated blocks are the batch's last num_prior windows
+        rows = slice(size + (block - 1) * num_prior, size + block * num_prior)
+        np.testing.assert_array_equal(copies["global_positions"][rows], batch["global_positions"][-num_prior:])
+
+    errors = jnp.asarray([9.0, 5.0, 1.0, 2.0, 0.5, 3.0, 3.0, 0.1])  # 2 posterior rows, then K = 3 blocks of 2
+    np.testing.assert_array_equal(losses.best_of_weights(errors, 2, 3), [1, 1, 0, 0, 1, 0, 0, 1])
+    positions = jnp.zeros((2, 3, 4, 3)).at[1, :, :, 0].set(3.0)
+    np.testing.assert_allclose(losses.window_position_errors(positions, jnp.zeros_like(positions),
+                                                             jnp.ones((2, 3), bool)), [0.0, 3.0])
+
+    total, terms, generated = losses.generator_loss(params, phase_params, batch, key, best3, LENGTH)
+    assert np.isfinite(float(total)) and generated["features"].shape[0] == size
+    # the best copy is at least as close as the copies' mean, and the copies differ (independent noise)
+    assert float(terms["prior_error_best"]) < float(terms["prior_error_mean"])
+    # the prior copies' ground truth enters the state and FK terms: replacing it changes them
+    changed = _changed_in_between(batch)
+    changed = {k: (v.at[-num_prior:].set(changed[k][-num_prior:]) if k in ("rotations", "contacts") else v)
+               for k, v in batch.items()}
+    assert abs(float(losses.generator_loss(params, phase_params, changed, key, best3, LENGTH)[1]["state"])
+               - float(terms["state"])) > 1e-4
+    grads = jax.grad(lambda p: losses.generator_loss(p, phase_params, batch, key, best3, LENGTH)[0])(params)
+    assert all(np.isfinite(np.asarray(g)).all() for g in jax.tree.leaves(grads))
+    with pytest.raises(ValueError, match="prior_best_of"):  # no prior window to repeat: refused, not ignored
+        losses.generator_loss(params, phase_params, batch, key, C.apply_overrides(config, ["loss.prior_best_of=2"]),
+                              LENGTH)
+    with pytest.raises(ValueError, match="prior_best_of"):
+        losses.prior_copies(batch, C.apply_overrides(config, ["loss.prior_best_of=0"]).loss, config.model)
