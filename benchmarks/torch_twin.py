@@ -63,12 +63,14 @@ def check_supported(config) -> None:
         "model.matmul_dtype": (m.matmul_dtype, ("float32",)),
         "loss.prior_rollout": (bool(lc.prior_rollout and m.posterior != "none"), (False,)),
         "loss.prior_sample_fraction": (lc.prior_sample_fraction if m.posterior != "none" else 0.0, (0.0,)),
+        "loss.prior_best_of": (lc.prior_best_of, (1,)),
         "loss.foot_skate_contacts": (lc.foot_skate_contacts, ("truth",)),
         "train.lr_decay_to": (tc.lr_decay_to, (1.0,)),
     }
     hints = {"model.matmul_dtype": " (the twin runs float32; time it under torch.autocast for bfloat16)",
              "loss.prior_rollout": " (the second rollout with z from the prior is not in the twin)",
              "loss.prior_sample_fraction": " (every window's z comes from the posterior in the twin)",
+             "loss.prior_best_of": " (the twin rolls every window out once)",
              "loss.foot_skate_contacts": " (the twin holds the ground truth's contacts still)",
              "train.lr_decay_to": " (the twin keeps the learning rate constant)"}
     for field, (value, ok) in allowed.items():

@@ -94,6 +94,10 @@ class ModelConfig:
     stitch_buffer: int = 4  # reason: K (paper leaves it open); 2K = 8 overlap frames, clipped to L//2
     variance_blend: str = "std"  # reason: "std" blends mu and sigma linearly (the W2 geodesic between
     # diagonal Gaussians: sigma stays 1 when both are 1); "var" = law of (1-g)z + g z_t, z independent
+    noise_correlation: float = 0.0  # paper: 0, independent latent noise per frame. rho in [0, 1] draws each
+    # direction's noise as AR(1) over frames, every frame still standard normal (rollout.correlated_noise), at
+    # training and as the sampling default at inference: with independent noise the prior samples' choices
+    # average out over the frames, and the samples stay close together (results/README.md measures it)
     contact_input_gradient: bool = False  # reason: True lets every later loss term's gradient flow into the
     # contact outputs through their use as the next step's input, and they serve as hidden state instead of
     # contacts: measured on quickstart (800 steps) contact term 1.74 with True, 1.40 with False (results/)
@@ -384,8 +388,9 @@ def to_dict(config: Config) -> dict:
 
 
 # Model fields a fine-tune (``--init-from``) may change: they change what the generators are fed, not what
-# their parameters are, so the parameters keep their meaning and the fine-tune adapts them.
-FINE_TUNABLE_MODEL_FIELDS = ("keyframe_velocity",)
+# their parameters are (the keyframes' velocity, the latent noise), so the parameters keep their meaning and the
+# fine-tune adapts them.
+FINE_TUNABLE_MODEL_FIELDS = ("keyframe_velocity", "noise_correlation")
 
 
 # What a config saved before a field existed meant: such a checkpoint restores as it was trained.

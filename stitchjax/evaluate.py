@@ -176,7 +176,7 @@ def interpolation_method(windows, start, length, num_samples, seed):
 BASELINE_METHODS: dict[str, Callable] = {"interp": interpolation_method, "zerov": zero_velocity_method}
 
 
-def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correlation: float = 0.0,
+def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correlation: float | None = None,
                  noise_ramp_steps: int = 0):
     """The model as a ``Method``:
     ``method(windows, start, length, num_samples, seed) -> (rotations (S, B, L, J, 4), positions (S, B, L, J, 3))``.
@@ -185,7 +185,8 @@ def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correla
     ``start`` and ``start + length + 1`` of each window and their foot-contact labels from ``windows.contacts``
     (the keyframes' character state, as in training); it returns the L generated frames only.
     search: latent pairs per sample (0: none); noise_scale: factor on the latent noise; noise_correlation:
-    its correlation from frame to frame (``rollout.correlated_noise``; 0: independent, the paper's);
+    its correlation from frame to frame (``rollout.correlated_noise``; 0: independent, the paper's; None:
+    the model's ``model.noise_correlation``);
     noise_ramp_steps: its ramp from each keyframe (``rollout.noise_ramp``; 0: none, the paper's).
     """
     if not isinstance(model, Model):
@@ -210,8 +211,8 @@ def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correla
     return method
 
 
-def evaluation_method(checkpoint, search: int = 0, noise_scale: float = 1.0, noise_correlation: float = 0.0,
-                      noise_ramp_steps: int = 0):
+def evaluation_method(checkpoint, search: int = 0, noise_scale: float = 1.0,
+                      noise_correlation: float | None = None, noise_ramp_steps: int = 0):
     """:func:`model_method` of a checkpoint folder (``checkpoint`` may also be a loaded ``Model``)."""
     model = checkpoint if isinstance(checkpoint, Model) else load_model(checkpoint)
     return model_method(model, search=search, noise_scale=noise_scale, noise_correlation=noise_correlation,

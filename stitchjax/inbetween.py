@@ -125,7 +125,7 @@ def _check_request(model: Model, length: int, num_samples: int, search: int, war
 
 def sample_transitions(model: Model, start: dict, target: dict, offsets, length: int, num_samples: int,
                        seed=0, search: int = 0, noise_scale: float = 1.0,
-                       noise_correlation: float = 0.0, noise_ramp_steps: int = 0) -> dict:
+                       noise_correlation: float | None = None, noise_ramp_steps: int = 0) -> dict:
     """Transitions in the model's frame for B keyframe pairs (no alignment, no keyframe overwrite).
 
     start, target: {"rotations" (B, J, 4), "root_position" (B, 3), "contacts" (B, C)}, already centred
@@ -136,13 +136,15 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
     of M x S samples, and the S with the lowest stitching loss are returned in increasing order.
     noise_scale: factor on the latent noise (0: every sample is the same, the prior's mean path).
     noise_correlation: in [0, 1], the noise's correlation from one frame to the next (0: independent per
-      frame, the paper's; ``rollout.correlated_noise``).
+      frame, the paper's; ``rollout.correlated_noise``); None: the model's ``model.noise_correlation``.
     noise_ramp_steps: >= 0; the noise of each direction rises linearly from 0 at the frame next to its
       keyframe to full at this many steps (0: full from the first frame, the paper's; ``rollout.noise_ramp``).
     """
     _check_request(model, length, num_samples, search, warn=True)
     if not np.isfinite(noise_scale) or noise_scale < 0:
         raise InbetweenError(f"noise_scale must be a finite number >= 0, got {noise_scale}")
+    if noise_correlation is None:
+        noise_correlation = model.config.model.noise_correlation
     if not 0.0 <= noise_correlation <= 1.0:
         raise InbetweenError(f"noise_correlation must be in [0, 1], got {noise_correlation}")
     if int(noise_ramp_steps) != noise_ramp_steps or noise_ramp_steps < 0:
@@ -208,7 +210,7 @@ def _check_skeleton(model: Model, skeleton):
 
 def transitions_in_frame(model: Model, start_rotations, start_positions, start_contacts, target_rotations,
                          target_positions, target_contacts, length: int, num_samples: int, seed=0,
-                         search: int = 0, noise_scale: float = 1.0, noise_correlation: float = 0.0,
+                         search: int = 0, noise_scale: float = 1.0, noise_correlation: float | None = None,
                          noise_ramp_steps: int = 0):
     """Transitions between B keyframe pairs given in any world frame, returned in that frame.
 

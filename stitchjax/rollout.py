@@ -229,7 +229,7 @@ def stitch(fwd_all, bwd_all, length, h, k, num_frames: int, bidirectional: bool 
 
 
 def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int, noise=None,
-            probes=None, ground_truth=None, noise_scale=1.0, noise_correlation=0.0, use_prior=None,
+            probes=None, ground_truth=None, noise_scale=1.0, noise_correlation=None, use_prior=None,
             noise_ramp_steps: int = 0):
     """Generate one transition.
 
@@ -255,7 +255,8 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
       use_prior: optional () bool, with ground_truth: True draws z from the prior anyway, as at inference
         (``loss.prior_sample_fraction``); the posterior's Gaussians are still returned.
       noise_correlation: static rho in [0, 1], the correlation of each direction's noise from one step to
-        the next (:func:`correlated_noise`); 0 = independent per frame, as in the paper.
+        the next (:func:`correlated_noise`); 0 = independent per frame, as in the paper; None = the
+        model's ``model.noise_correlation`` (what training uses).
       noise_ramp_steps: static int >= 0; each direction's noise rises linearly from 0 at its first step to
         full at this step (:func:`noise_ramp`); 0 = full noise from the first step, as in the paper.
     Returns dict (T_out = max_length + 2):
@@ -274,6 +275,8 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     length = jnp.clip(jnp.asarray(length, jnp.int32), 1, max_length)
     n = num_steps(config, max_length)
     h, k, n_fwd, n_bwd = schedule(config, length)
+    if noise_correlation is None:
+        noise_correlation = m.noise_correlation
     eps = _latent_noise(key, noise, (n, 2, m.latent_dim), dtype, noise_scale, noise_correlation, noise_ramp_steps)
     if ground_truth is not None and m.posterior == "none":
         raise ValueError("ground_truth given but model.posterior='none': the model has no posterior")

@@ -159,6 +159,8 @@ def test_evaluate_cli_names_the_flag(tmp_path):
     assert bad.returncode == 2 and "--samples 0" in bad.stderr
     bad = evaluate("model", "--baselines-only", "--data", data, "--noise-ramp", -2)
     assert bad.returncode == 2 and "--noise-ramp -2" in bad.stderr
+    bad = evaluate("model", "--baselines-only", "--data", data, "--noise-correlation", 1.5)
+    assert bad.returncode == 2 and "--noise-correlation 1.5" in bad.stderr
     bad = evaluate("model", "--checkpoint", tmp_path / "nowhere", "--data", data)
     assert bad.returncode == 2 and "--checkpoint" in bad.stderr and "does not exist" in bad.stderr
     bad = evaluate("baselines", "--data", tmp_path / "nowhere")

@@ -378,3 +378,24 @@ def test_prior_best_of_scores_only_the_copy_closest_to_the_ground_truth(setup):
                               LENGTH)
     with pytest.raises(ValueError, match="prior_best_of"):
         losses.prior_copies(batch, C.apply_overrides(config, ["loss.prior_best_of=0"]).loss, config.model)
+
+
+def test_model_noise_correlation_is_the_rollouts_default_at_training_and_inference(setup):
+    """model.noise_correlation: a rollout without an explicit correlation uses the model's (training and the
+    samplers), an explicit one overrides it, and 0 keeps the paper's independent noise."""
+    config, params, phase_params, batch = setup
+    correlated = C.apply_overrides(config, ["model.noise_correlation=0.9"])
+    start, target, offsets = jax.tree.map(lambda x: x[0], RO.keyframes_from_batch(batch, LENGTH))
+    key = jax.random.PRNGKey(2)
+
+    def run(cfg, **kw):
+        return np.asarray(RO.rollout(params, phase_params, start, target, offsets, key, cfg, LENGTH, LENGTH,
+                                     **kw)["global_positions"])
+
+    np.testing.assert_array_equal(run(correlated), run(config, noise_correlation=0.9))
+    np.testing.assert_array_equal(run(correlated, noise_correlation=0.0), run(config))
+    assert np.abs(run(correlated) - run(config)).max() > 1e-4
+    # the training rollout reads it too: the prior windows move as the correlated sampler moves them
+    prior = RO.rollout_batch(params, phase_params, batch, key, correlated, LENGTH, posterior=False)
+    plain = RO.rollout_batch(params, phase_params, batch, key, config, LENGTH, posterior=False)
+    assert float(jnp.abs(prior["global_positions"] - plain["global_positions"]).max()) > 1e-4
