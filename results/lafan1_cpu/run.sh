@@ -2,7 +2,7 @@
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
-#        recon25_n64|best_of_n64|rho95_n64|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -331,6 +331,13 @@ case "${1:-}" in
       --max-steps 30400 --workdir runs/n64_rho95 $(fine_tune_lr 28000 30400) $RECIPE loss.near_keyframe_frames=2 \
       loss.near_keyframe_weight=64 model.noise_correlation=0.95
     all_lengths from_scratch_mixed n64_rho95
+    ;;
+  rho95_best3_n64)  # rho95_n64 with each prior window rolled out three times, only the copy nearest the ground
+    # truth scored by the state and FK terms (loss.prior_best_of=3); it went beside rho95_n64 (its control)
+    bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/n64_more \
+      --max-steps 30400 --workdir runs/n64_rho95_best3 $(fine_tune_lr 28000 30400) $RECIPE \
+      loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 model.noise_correlation=0.95 loss.prior_best_of=3
+    all_lengths from_scratch_mixed n64_rho95_best3
     ;;
   evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
