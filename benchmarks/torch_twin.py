@@ -61,6 +61,7 @@ def check_supported(config) -> None:
         "model.disc_features": (m.disc_features, ("positions+velocity",)),
         "loss.reduction": (lc.reduction, ("sum", "mean")),
         "model.matmul_dtype": (m.matmul_dtype, ("float32",)),
+        "model.noise_correlation": (m.noise_correlation, (0.0,)),
         "loss.prior_rollout": (bool(lc.prior_rollout and m.posterior != "none"), (False,)),
         "loss.prior_sample_fraction": (lc.prior_sample_fraction if m.posterior != "none" else 0.0, (0.0,)),
         "loss.prior_best_of": (lc.prior_best_of, (1,)),
@@ -71,6 +72,7 @@ def check_supported(config) -> None:
              "loss.prior_rollout": " (the second rollout with z from the prior is not in the twin)",
              "loss.prior_sample_fraction": " (every window's z comes from the posterior in the twin)",
              "loss.prior_best_of": " (the twin rolls every window out once)",
+             "model.noise_correlation": " (the twin takes independent noise per frame)",
              "loss.foot_skate_contacts": " (the twin holds the ground truth's contacts still)",
              "train.lr_decay_to": " (the twin keeps the learning rate constant)"}
     for field, (value, ok) in allowed.items():

@@ -264,7 +264,8 @@ def _keyframe(motion: Motion, which: str):
 
 def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samples: int = 1, seed=0,
               search: int = 0, start_contacts=None, target_contacts=None, allow_extrapolation: bool = False, *,
-              noise_scale: float = 1.0, noise_ramp_steps: int = 0) -> list:
+              noise_scale: float = 1.0, noise_ramp_steps: int = 0,
+              noise_correlation: float | None = None) -> list:
     """Generate ``num_samples`` transitions of ``length`` frames from ``start`` to ``target``.
 
     start: Motion whose LAST frame is the start keyframe (earlier frames, if any, are context: the one
@@ -276,7 +277,9 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     allow_extrapolation: a length beyond ``model.trained_max_length`` is an InbetweenError unless True.
     noise_scale: factor on the latent noise (1: the model's own spread; 0: one motion, the prior's mean);
     noise_ramp_steps: the noise rises from 0 at the frames next to the keyframes to full over this many
-      frames (0: full from the first frame, the paper's sampling; ``rollout.noise_ramp``).
+      frames (0: full from the first frame, the paper's sampling; ``rollout.noise_ramp``);
+    noise_correlation: the noise's correlation from one frame to the next (None: the model's
+      ``model.noise_correlation``; 0: independent per frame, the paper's; ``rollout.correlated_noise``).
     The keyframes must be on the model's skeleton, frame rate and units (see
     :func:`stitchjax.takes.inbetween_takes`, which brings takes from anywhere onto them).
     Returns a list of ``num_samples`` Motions of L + 2 frames (start keyframe, L generated frames,
@@ -302,7 +305,8 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     rotations, positions, _ = transitions_in_frame(
         model, start.rotations[-1:], start.positions[-1:], np.asarray(start_contacts)[None],
         target.rotations[:1], target.positions[:1], np.asarray(target_contacts)[None], length, num_samples,
-        seed, search, noise_scale=noise_scale, noise_ramp_steps=noise_ramp_steps)
+        seed, search, noise_scale=noise_scale, noise_correlation=noise_correlation,
+        noise_ramp_steps=noise_ramp_steps)
     return [start.with_frames(rotations[0, s], positions[0, s]) for s in range(num_samples)]
 
 

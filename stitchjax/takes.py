@@ -123,7 +123,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
                     length: int | None = None, num_samples: int = 1, seed=0, search: int = 0, *,
                     offset=(0.0, 0.0, 0.0), turn_degrees: float = 0.0, output: str = "appended",
                     scale: float = 1.0, allow_extrapolation: bool = False, noise_scale: float = 1.0,
-                    noise_ramp_steps: int = 0) -> list:
+                    noise_ramp_steps: int = 0, noise_correlation: float | None = None) -> list:
     """Transitions from frame ``start_frame`` of one take to frame ``target_frame`` of another (or the same).
 
     Both takes are brought onto the model's terms first (:func:`conform_take`: the training files' units and
@@ -138,7 +138,8 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     output: "transition" = the start keyframe, L generated frames, the placed target keyframe (L + 2 frames);
       "appended" = the start take's frames 0..start_frame, the L generated frames and the target keyframe;
       "clip" = "appended" followed by the rest of the (placed) target take.
-    noise_scale, noise_ramp_steps: how far the samples spread (:func:`stitchjax.inbetween.inbetween`).
+    noise_scale, noise_ramp_steps, noise_correlation: how far the samples spread
+    (:func:`stitchjax.inbetween.inbetween`).
     Returns ``num_samples`` Motions at the model's frame rate on the model's skeleton (the takes' own
     skeleton and channel layout when their joints already match), positions in the takes' units and axes.
     """
@@ -164,7 +165,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     target_contacts = _neighbour_contacts(model, target_take, b, +1)
     samples = inbetween(model, start_take[a], target_take[b], length, num_samples, seed, search,
                         start_contacts, target_contacts, allow_extrapolation=True, noise_scale=noise_scale,
-                        noise_ramp_steps=noise_ramp_steps)
+                        noise_ramp_steps=noise_ramp_steps, noise_correlation=noise_correlation)
     out = []
     for s in samples:
         if output == "transition":
@@ -180,7 +181,8 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
 
 def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: int, length: int | None = None,
                    num_samples: int = 1, seed=0, search: int = 0, allow_extrapolation: bool = False, *,
-                   noise_scale: float = 1.0, noise_ramp_steps: int = 0) -> list:
+                   noise_scale: float = 1.0, noise_ramp_steps: int = 0,
+                   noise_correlation: float | None = None) -> list:
     """Replace the frames between two keyframes of a take by generated transitions.
 
     Keyframes: ``motion`` frames ``start_frame`` (A) and ``end_frame`` (B), A < B. length: generated
@@ -191,8 +193,8 @@ def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: in
     A take at another frame rate is resampled to the model's (the keyframes kept exactly; the result is at
     the model's rate and the default length counts the model's frames between the keyframes); joints are
     mapped by name and the units checked as in :func:`inbetween_takes`. A length beyond the model's
-    training lengths is refused unless ``allow_extrapolation``. noise_scale, noise_ramp_steps: how far the
-    samples spread (:func:`stitchjax.inbetween.inbetween`).
+    training lengths is refused unless ``allow_extrapolation``. noise_scale, noise_ramp_steps,
+    noise_correlation: how far the samples spread (:func:`stitchjax.inbetween.inbetween`).
     """
     if not isinstance(motion, Motion):
         raise InbetweenError(f"expected a stitchjax.bvh.Motion, got {type(motion).__name__}")
@@ -202,4 +204,4 @@ def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: in
         raise InbetweenError(f"end frame {end_frame} must come after start frame {start_frame}")
     return inbetween_takes(model, motion, start_frame, motion, end_frame, length, num_samples, seed, search,
                            output="clip", allow_extrapolation=allow_extrapolation, noise_scale=noise_scale,
-                           noise_ramp_steps=noise_ramp_steps)
+                           noise_ramp_steps=noise_ramp_steps, noise_correlation=noise_correlation)

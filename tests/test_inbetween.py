@@ -83,6 +83,15 @@ def test_noise_scale_and_ramp_reach_the_animator_calls(model, take):
     np.testing.assert_array_equal(clips[0].rotations, clips[1].rotations)
     with pytest.raises(inbetween.InbetweenError, match="noise_ramp_steps"):
         inbetween.inbetween(model, start, target, LENGTH, num_samples=2, noise_ramp_steps=-1)
+    # the noise's correlation: None is the model's own (0 here, the paper's draw), another value another draw
+    assert model.config.model.noise_correlation == 0.0
+    same = inbetween.inbetween(model, start, target, LENGTH, num_samples=3, seed=0, noise_correlation=0.0)
+    np.testing.assert_array_equal(same[1].rotations, plain[1].rotations)
+    clips = takes.inbetween_clip(model, take, 100, 110, length=LENGTH, num_samples=2, noise_correlation=1.0)
+    default = takes.inbetween_clip(model, take, 100, 110, length=LENGTH, num_samples=2)
+    assert np.abs(_global(clips[1]) - _global(default[1])).max() > 1e-3
+    with pytest.raises(inbetween.InbetweenError, match="noise_correlation"):
+        inbetween.inbetween(model, start, target, LENGTH, num_samples=2, noise_correlation=1.5)
 
 
 def test_bfloat16_matmuls_give_nearby_transitions_that_still_end_on_the_keyframes(model, take):
@@ -232,3 +241,6 @@ def test_cli_errors_are_one_line(tiny_run, tmp_path):
     result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 109,
                   "--noise-ramp", -1, "--out", tmp_path)
     assert result.returncode == 2 and "--noise-ramp -1" in result.stderr
+    result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 109,
+                  "--noise-correlation", 2, "--out", tmp_path)
+    assert result.returncode == 2 and "--noise-correlation 2" in result.stderr
