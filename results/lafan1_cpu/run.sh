@@ -2,7 +2,7 @@
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
-#        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -338,6 +338,24 @@ case "${1:-}" in
       --max-steps 30400 --workdir runs/n64_rho95_best3 $(fine_tune_lr 28000 30400) $RECIPE \
       loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 model.noise_correlation=0.95 loss.prior_best_of=3
     all_lengths from_scratch_mixed n64_rho95_best3
+    ;;
+  evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
+    # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
+    # and at L = 50 over rho; the scratch pair (height32, the posterior, and none) at L = 30 and 50; n64_cont
+    # at every length with rho 0.95 (the control of rho95_n64, which trained with it)
+    M=$OUT/from_scratch_mixed
+    bin/evaluate model --checkpoint $M/models/n64_more --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+      --noise-scales 0 --noise-correlation 0.95 --json $M/n64_more_rho95_all_lengths.json
+    python results/noise_correlation.py --checkpoint $M/models/n64_more --data "$DATA" --lengths 50 \
+      --correlations 0,0.5,0.9,0.95,0.97,0.99,1 --json $M/n64_more_rho_sweep_L50.json
+    for run in none height32; do
+      python results/noise_correlation.py --checkpoint $OUT/scratch/models/$run --data "$DATA" --lengths 30,50 \
+        --correlations 0,0.95 --json $OUT/scratch/${run}_rho.json
+    done
+    bin/evaluate model --checkpoint runs/n64_cont --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+      --noise-scales 0 --noise-correlation 0.95 --json $M/n64_cont_rho95_all_lengths.json
+    python results/figures.py --checkpoint $M/models/n64_more --data "$DATA" --out $M/figures --no-notebook \
+      --noise-correlation 0.95
     ;;
   evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
