@@ -29,12 +29,13 @@ START = 9  # the protocol's start keyframe (DESIGN.md §6)
 
 
 def window_figures(model, windows, index: int, length: int, samples: int, seed: int, out: pathlib.Path,
-                   noise_scale: float = 1.0, noise_correlation: float | None = None) -> dict:
+                   noise_scale: float = 1.0, noise_correlation: float | None = None, noise_ramp: int = 0) -> dict:
     """Filmstrip and root paths of ``samples`` transitions of test window ``index``, the latent noise scaled
-    by ``noise_scale`` and correlated from frame to frame by ``noise_correlation`` (None: the model's);
-    returns a summary."""
+    by ``noise_scale``, correlated from frame to frame by ``noise_correlation`` (None: the model's) and
+    ramped up over ``noise_ramp`` frames from each keyframe; returns a summary."""
     one = windows[index:index + 1]
-    method = evaluate.model_method(model, noise_scale=noise_scale, noise_correlation=noise_correlation)
+    method = evaluate.model_method(model, noise_scale=noise_scale, noise_correlation=noise_correlation,
+                                   noise_ramp_steps=noise_ramp)
     rotations, positions = method(one, START, length, samples, seed)  # (S, 1, L, J, .)
     rot_all = np.asarray(one.rotations, np.float64)[0, START:START + length + 2]
     pos_all = np.asarray(one.positions, np.float64)[0, START:START + length + 2]
@@ -54,6 +55,9 @@ def window_figures(model, windows, index: int, length: int, samples: int, seed: 
     if noise_correlation is not None:
         suffix += f"_rho{noise_correlation:g}"
         noise += f", noise correlation {noise_correlation:g}"
+    if noise_ramp:
+        suffix += f"_ramp{noise_ramp}"
+        noise += f", ramp {noise_ramp}"
     plots.filmstrip([truth] + list(motions), model.parents, every=5, titles=titles,
                     title=f"LAFAN1 subject5 test window {index}, L = {length}: {samples} samples{noise} "
                           f"(mid-transition spread {spread_mid:.1f} cm per joint)",
@@ -61,7 +65,7 @@ def window_figures(model, windows, index: int, length: int, samples: int, seed: 
     plots.root_trajectories(list(motions), reference=truth, title=f"root paths, window {index}, L = {length}",
                             path=out / f"root_paths_L{length}{suffix}.png")
     summary = {"window": index, "length": length, "samples": samples, "seed": seed,
-               "noise_scale": noise_scale, "noise_correlation": noise_correlation, "spread_cm": spread, "spread_mid_cm": spread_mid}
+               "noise_scale": noise_scale, "noise_correlation": noise_correlation, "noise_ramp": noise_ramp, "spread_cm": spread, "spread_mid_cm": spread_mid}
     (out / f"window_L{length}{suffix}.json").write_text(json.dumps(summary, indent=2) + "\n")
     return summary
 
@@ -103,6 +107,9 @@ def main(argv=None) -> int:
     parser.add_argument("--noise-correlation", type=float, default=None,
                         help="the latent noise's correlation from frame to frame (default: the model's; files get "
                              "a _rho<r> suffix when given)")
+    parser.add_argument("--noise-ramp", type=int, default=0, metavar="FRAMES",
+                        help="the noise rises from 0 at the frames next to the keyframes to full over this many "
+                             "frames (default 0; files get a _ramp<n> suffix)")
     parser.add_argument("--no-notebook", action="store_true", help="skip executing the notebook")
     args = parser.parse_args(argv)
     out = pathlib.Path(args.out)
@@ -112,7 +119,7 @@ def main(argv=None) -> int:
     if not 0 <= args.window < len(windows):
         parser.error(f"--window {args.window}: the test set has {len(windows)} windows (0..{len(windows) - 1})")
     print(json.dumps(window_figures(model, windows, args.window, args.length, args.samples, args.seed, out,
-                                    args.noise_scale, args.noise_correlation)))
+                                    args.noise_scale, args.noise_correlation, args.noise_ramp)))
     if not args.no_notebook:
         print(f"notebook: {notebook_figures(pathlib.Path(args.checkpoint), out / 'notebook')} figures")
     return 0

@@ -356,6 +356,16 @@ case "${1:-}" in
       --noise-scales 0 --noise-correlation 0.95 --json $M/n64_cont_rho95_all_lengths.json
     python results/figures.py --checkpoint $M/models/n64_more --data "$DATA" --out $M/figures --no-notebook \
       --noise-correlation 0.95
+    # with the noise also ramped up over 4 frames from each keyframe, at x1, x2 and x2.5; the scratch pair at x2.5
+    SAMPLING="--noise-correlation 0.95 --noise-ramp 4"
+    bin/evaluate model --checkpoint $M/models/n64_more --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+      --noise-scales 0,2,2.5 $SAMPLING --json $M/n64_more_rho95_ramp4_all_lengths.json
+    for run in none height32; do
+      bin/evaluate model --checkpoint $OUT/scratch/models/$run --data "$DATA" --samples 10 --lengths 30,50 \
+        --noise-scales 2.5 $SAMPLING --json $OUT/scratch/${run}_rho95_ramp4.json
+    done
+    python results/figures.py --checkpoint $M/models/n64_more --data "$DATA" --out $M/figures --no-notebook \
+      --noise-scale 2.5 $SAMPLING
     ;;
   evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
