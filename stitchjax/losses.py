@@ -5,7 +5,9 @@ Overall (paper Eq. 9, weights in ``config.loss``)::
     L = L_state + 1.0 L_kl + 0.5 L_stitch + 0.5 L_fk + 0.1 L_D + 0.1 L_G
 
 Optional, not in the paper: ``loss.foot_skate_weight`` x :func:`foot_skate_loss` and
-``loss.foot_velocity_weight`` x :func:`foot_velocity_loss`.
+``loss.foot_velocity_weight`` x :func:`foot_velocity_loss`; ``loss.prior_best_of`` rolls the prior windows out
+several times and scores only the copy nearest the ground truth in the state and FK terms
+(:func:`prior_copies`, :func:`best_of_weights`).
 
 L_kl: with ``model.posterior="next_frame"`` KL(q || p) of the posterior against the latent-interpolation
 prior (``loss.free_bits``, warm-up ``loss.kl_warmup_steps``, optional ``loss.prior_kl_weight`` KL(p || N(0, I)));
