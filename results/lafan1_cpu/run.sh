@@ -366,6 +366,11 @@ case "${1:-}" in
     done
     python results/figures.py --checkpoint $M/models/n64_more --data "$DATA" --out $M/figures --no-notebook \
       --noise-scale 2.5 $SAMPLING
+    # the same sampling with the latent-pair search (4 pairs per sample), and with another sampling seed
+    bin/evaluate model --checkpoint $M/models/n64_more --data "$DATA" --samples 10 --lengths 30,50 \
+      --noise-scales 2.5 $SAMPLING --search 4 --json $M/n64_more_rho95_ramp4_search4.json
+    bin/evaluate model --checkpoint $M/models/n64_more --data "$DATA" --samples 10 --lengths 45,50 \
+      --noise-scales 2.5 $SAMPLING --seed 1 --json $M/n64_more_rho95_ramp4_L45_50_seed1.json
     ;;
   evaluate_from_scratch_mixed)  # as evaluate_mixed_lengths, then every length
     evaluate_runs from_scratch_mixed sm_cont sm_fb4 sm_near8
