@@ -366,7 +366,9 @@ case "${1:-}" in
     done
     python results/figures.py --checkpoint $M/models/n64_more --data "$DATA" --out $M/figures --no-notebook \
       --noise-scale 2.5 $SAMPLING
-    # the same sampling with the latent-pair search (4 pairs per sample), and with another sampling seed
+    # the latent-space notebook on n64_more (its own sampling), then the same sampling as above with the
+    # latent-pair search (4 pairs per sample), and with another sampling seed
+    python results/figures.py --checkpoint $M/models/n64_more --data "$DATA" --out $M/figures
     bin/evaluate model --checkpoint $M/models/n64_more --data "$DATA" --samples 10 --lengths 30,50 \
       --noise-scales 2.5 $SAMPLING --search 4 --json $M/n64_more_rho95_ramp4_search4.json
     bin/evaluate model --checkpoint $M/models/n64_more --data "$DATA" --samples 10 --lengths 45,50 \
