@@ -29,7 +29,8 @@ START = 9  # the protocol's start keyframe (DESIGN.md §6)
 
 
 def window_figures(model, windows, index: int, length: int, samples: int, seed: int, out: pathlib.Path,
-                   noise_scale: float = 1.0, noise_correlation: float | None = None, noise_ramp: int = 0) -> dict:
+                   noise_scale: float = 1.0, noise_correlation: float | None = None,
+                   noise_ramp: int = 0) -> dict:
     """Filmstrip and root paths of ``samples`` transitions of test window ``index``, the latent noise scaled
     by ``noise_scale``, correlated from frame to frame by ``noise_correlation`` (None: the model's) and
     ramped up over ``noise_ramp`` frames from each keyframe; returns a summary."""
@@ -65,7 +66,8 @@ def window_figures(model, windows, index: int, length: int, samples: int, seed: 
     plots.root_trajectories(list(motions), reference=truth, title=f"root paths, window {index}, L = {length}",
                             path=out / f"root_paths_L{length}{suffix}.png")
     summary = {"window": index, "length": length, "samples": samples, "seed": seed,
-               "noise_scale": noise_scale, "noise_correlation": noise_correlation, "noise_ramp": noise_ramp, "spread_cm": spread, "spread_mid_cm": spread_mid}
+               "noise_scale": noise_scale, "noise_correlation": noise_correlation, "noise_ramp": noise_ramp,
+               "spread_cm": spread, "spread_mid_cm": spread_mid}
     (out / f"window_L{length}{suffix}.json").write_text(json.dumps(summary, indent=2) + "\n")
     return summary
 
