@@ -62,6 +62,7 @@ def check_supported(config) -> None:
         "loss.reduction": (lc.reduction, ("sum", "mean")),
         "model.matmul_dtype": (m.matmul_dtype, ("float32",)),
         "model.noise_correlation": (m.noise_correlation, (0.0,)),
+        "model.posterior_horizon": (m.posterior_horizon, (1,)),
         "loss.prior_rollout": (bool(lc.prior_rollout and m.posterior != "none"), (False,)),
         "loss.prior_sample_fraction": (lc.prior_sample_fraction if m.posterior != "none" else 0.0, (0.0,)),
         "loss.prior_best_of": (lc.prior_best_of, (1,)),
@@ -73,6 +74,7 @@ def check_supported(config) -> None:
              "loss.prior_sample_fraction": " (every window's z comes from the posterior in the twin)",
              "loss.prior_best_of": " (the twin rolls every window out once)",
              "model.noise_correlation": " (the twin takes independent noise per frame)",
+             "model.posterior_horizon": " (the twin's posterior reads the next frame)",
              "loss.foot_skate_contacts": " (the twin holds the ground truth's contacts still)",
              "train.lr_decay_to": " (the twin keeps the learning rate constant)"}
     for field, (value, ok) in allowed.items():

@@ -98,6 +98,9 @@ class ModelConfig:
     # direction's noise as AR(1) over frames, every frame still standard normal (rollout.correlated_noise), at
     # training and as the sampling default at inference: with independent noise the prior samples' choices
     # average out over the frames, and the samples stay close together (results/README.md measures it)
+    posterior_horizon: int = 1  # reason: 1 = q(z | h, ground-truth next frame). k > 1 shows q the frame k steps
+    # ahead (clipped at the keyframe the direction heads for) with the root's mean velocity over those k steps
+    # in the velocity slot, so z can carry where the motion goes, not only the next frame's residual
     contact_input_gradient: bool = False  # reason: True lets every later loss term's gradient flow into the
     # contact outputs through their use as the next step's input, and they serve as hidden state instead of
     # contacts: measured on quickstart (800 steps) contact term 1.74 with True, 1.40 with False (results/)
@@ -390,7 +393,7 @@ def to_dict(config: Config) -> dict:
 # Model fields a fine-tune (``--init-from``) may change: they change what the generators are fed, not what
 # their parameters are (the keyframes' velocity, the latent noise), so the parameters keep their meaning and the
 # fine-tune adapts them.
-FINE_TUNABLE_MODEL_FIELDS = ("keyframe_velocity", "noise_correlation")
+FINE_TUNABLE_MODEL_FIELDS = ("keyframe_velocity", "noise_correlation", "posterior_horizon")
 
 
 # What a config saved before a field existed meant: such a checkpoint restores as it was trained.

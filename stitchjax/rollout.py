@@ -470,28 +470,43 @@ def keyframes_from_batch(batch: dict, length):
     return keyframe(0), keyframe(index), batch["offsets"][:, 0]
 
 
-def direction_frames(batch: dict, length, num_steps: int, backward: bool, data_config) -> dict:
+def direction_frames(batch: dict, length, num_steps: int, backward: bool, data_config, ahead: int = 1) -> dict:
     """Ground truth of one direction's per-step frames (entry i = forward frame i + 1, or backward frame
     L - i), in that direction's time: "rotations" (B, n, J, 4), "velocities" (B, n, 3) scaled (reversed
-    time for the backward direction), "contacts" (B, n, C), "global_positions" (B, n, J, 3)."""
+    time for the backward direction), "contacts" (B, n, C), "global_positions" (B, n, J, 3).
+
+    ahead = k > 1: entry i is the frame k - 1 further on in that direction's time, clipped at the keyframe it
+    heads for (frame L + 1 forward, frame 0 backward), and "velocities" the root's mean velocity over the k
+    frames from the frame before entry i's own (so k = 1 is the frame's own velocity)."""
     length = jnp.asarray(length, jnp.int32)
     i = jnp.arange(num_steps + 1, dtype=jnp.int32)  # entry 0 = the keyframe the direction starts from
-    frames = (length + 1 - i) if backward else i
+    step = i[1:]  # direction time of the frame each entry shows
+    if ahead > 1:
+        step = jnp.maximum(step, jnp.minimum(step + (ahead - 1), length + 1))
+    frames = (length + 1 - step) if backward else step
+    before = (length + 2 - i[1:]) if backward else i[1:] - 1  # the frame each step starts from
 
-    def take(x):
-        return jnp.take(x, frames, axis=1, mode="clip")
+    def take(x, index=frames):
+        return jnp.take(x, index, axis=1, mode="clip")
 
-    root = take(batch["root_positions"])
-    velocity = (root[:, 1:] - root[:, :-1]) / data_config.velocity_scale
-    return {"rotations": take(batch["rotations"])[:, 1:], "velocities": velocity,
-            "contacts": take(batch["contacts"])[:, 1:], "global_positions": take(batch["global_positions"])[:, 1:]}
+    root = batch["root_positions"]
+    velocity = take(root) - take(root, before)
+    if ahead > 1:  # per frame, over the span from `before`
+        velocity = velocity / (step - i[1:] + 1).astype(root.dtype)[None, :, None]
+    velocity = velocity / data_config.velocity_scale
+    return {"rotations": take(batch["rotations"]), "velocities": velocity, "contacts": take(batch["contacts"]),
+            "global_positions": take(batch["global_positions"])}
 
 
 def next_frame_states(batch: dict, length, num_steps: int, config) -> dict:
-    """Posterior inputs {"forward", "backward"}: (B, n, S) ground-truth state of the frame each step makes."""
+    """Posterior inputs {"forward", "backward"}: (B, n, S) ground-truth state of the frame each step makes,
+    or with ``model.posterior_horizon`` = k > 1 of the frame k - 1 further on (:func:`direction_frames`)."""
+    ahead = config.model.posterior_horizon
+    if ahead < 1:
+        raise ValueError(f"model.posterior_horizon must be >= 1 (1 = the next frame), got {ahead}")
     out = {}
     for name in ("forward", "backward"):
-        d = direction_frames(batch, length, num_steps, name == "backward", config.data)
+        d = direction_frames(batch, length, num_steps, name == "backward", config.data, ahead)
         out[name] = F.state_vector(d["rotations"], d["velocities"], d["contacts"])
     return out
 

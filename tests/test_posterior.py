@@ -9,6 +9,7 @@ import pytest
 
 from stitchjax import config as C
 from stitchjax import datasets, evaluate, losses, metrics, parallel, train, trained_model
+from stitchjax import features as F
 from stitchjax import networks as N
 from stitchjax import rollout as RO
 
@@ -399,3 +400,29 @@ def test_model_noise_correlation_is_the_rollouts_default_at_training_and_inferen
     prior = RO.rollout_batch(params, phase_params, batch, key, correlated, LENGTH, posterior=False)
     plain = RO.rollout_batch(params, phase_params, batch, key, config, LENGTH, posterior=False)
     assert float(jnp.abs(prior["global_positions"] - plain["global_positions"]).max()) > 1e-4
+
+
+@pytest.mark.parametrize("ahead", [1, 4])
+def test_posterior_horizon_shows_the_frame_k_ahead_with_the_roots_mean_velocity(setup, ahead):
+    """model.posterior_horizon = k: forward step j (making frame j) shows q frame min(j + k - 1, L + 1), the
+    backward step j (making frame L + 1 - j) frame max(L + 2 - j - k, 0), each with the root's mean velocity
+    in that direction's time since the frame the step starts from; k = 1 is the next frame itself."""
+    _, _, _, batch = setup
+    config = tiny_config(f"model.posterior_horizon={ahead}")
+    steps, length = 7, LENGTH
+    got = RO.next_frame_states(batch, length, steps, config)
+    root, scale = np.asarray(batch["root_positions"]), config.data.velocity_scale
+    for name in ("forward", "backward"):
+        rows = []
+        for j in range(1, steps + 1):
+            step = max(j, min(j + ahead - 1, length + 1))
+            frame, before = (length + 1 - step, length + 2 - j) if name == "backward" else (step, j - 1)
+            velocity = (root[:, frame] - root[:, before]) / (step - j + 1) / scale
+            state = F.state_vector(batch["rotations"][:, frame], jnp.asarray(velocity), batch["contacts"][:, frame])
+            rows.append(state)
+        np.testing.assert_allclose(got[name], jnp.stack(rows, axis=1), rtol=1e-6, atol=1e-6, err_msg=name)
+    if ahead > 1:  # the frames it shows differ from the next frame's
+        nearest = RO.next_frame_states(batch, length, steps, tiny_config())
+        assert float(jnp.abs(got["forward"] - nearest["forward"]).max()) > 1e-3
+    with pytest.raises(ValueError, match="posterior_horizon"):
+        RO.next_frame_states(batch, length, steps, tiny_config("model.posterior_horizon=0"))

@@ -128,7 +128,7 @@ def test_twin_next_frame_states_match_stitchjax(tiny):
 @pytest.mark.parametrize("override", ["model.matmul_dtype=bfloat16", "loss.prior_rollout=true",
                                       "loss.prior_sample_fraction=0.25", "train.lr_decay_to=0.5",
                                       "loss.foot_skate_contacts=height", "loss.prior_best_of=2",
-                                      "model.noise_correlation=0.5"])
+                                      "model.noise_correlation=0.5", "model.posterior_horizon=4"])
 def test_twin_refuses_what_it_does_not_mirror(override):
     config = config_lib.apply_overrides(config_lib.load_config("lafan1"), TINY + [override])
     with pytest.raises(torch_twin.UnsupportedConfig, match=override.split("=")[0]):

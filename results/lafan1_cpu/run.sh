@@ -2,7 +2,7 @@
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
-#        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -338,6 +338,18 @@ case "${1:-}" in
       --max-steps 30400 --workdir runs/n64_rho95_best3 $(fine_tune_lr 28000 30400) $RECIPE \
       loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 model.noise_correlation=0.95 loss.prior_best_of=3
     all_lengths from_scratch_mixed n64_rho95_best3
+    ;;
+  horizon_n64)  # the committed n64_more (step 28000) continued to step 30400, two side by side at nice -n 10, the
+    # same learning-rate profile, with the posterior shown the frame 8 / 16 steps ahead instead of the next one
+    # (model.posterior_horizon; the control is best_of_n64's n64_cont); then every length
+    N64="--init-from $OUT/from_scratch_mixed/models/n64_more --max-steps 30400 $(fine_tune_lr 28000 30400) $RECIPE"
+    N64="$N64 loss.near_keyframe_frames=2 loss.near_keyframe_weight=64"
+    for k in 8 16; do
+      nice -n 10 bin/train --config lafan1_cpu --data "$DATA" --no-progress --workdir runs/n64_h$k $N64 \
+        model.posterior_horizon=$k &
+    done
+    wait
+    all_lengths from_scratch_mixed n64_h8 n64_h16
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
