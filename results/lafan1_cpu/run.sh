@@ -2,7 +2,8 @@
 # The reproduction on a 2-core CPU: the commands that made results/lafan1_cpu, in order.
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
-#        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
+#        evaluate_none_pair|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -350,6 +351,19 @@ case "${1:-}" in
     done
     wait
     all_lengths from_scratch_mixed n64_h8 n64_h16
+    ;;
+  evaluate_none_pair)  # the like-for-like pair, scratch_mixed (posterior) and scratch_mixed_none, sampled alike
+    # (scratch_mixed_none trained again by the section scratch_mixed_none, at nice -n 10, its last checkpoint
+    # copied to scratch_mixed/models/scratch_mixed_none):
+    # every length at the paper's sampling (the retrained "none" against the first), then with the noise
+    # correlated over frames (0.95) and ramped over 4 frames from each keyframe, at x1 and x2.5
+    S=$OUT/scratch_mixed
+    bin/evaluate model --checkpoint $S/models/scratch_mixed_none --data "$DATA" --samples 10 \
+      --lengths 10,15,30,45,50 --noise-scales 0 --json $S/scratch_mixed_none_again_all_lengths.json
+    for run in scratch_mixed scratch_mixed_none; do
+      bin/evaluate model --checkpoint $S/models/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+        --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 --json $S/${run}_rho95_ramp4_all_lengths.json
+    done
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
