@@ -3,7 +3,7 @@
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
 #        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
-#        evaluate_none_pair|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        evaluate_none_pair|frontier|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -361,6 +361,17 @@ case "${1:-}" in
       bin/evaluate model --checkpoint $S/models/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
         --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 --json $S/${run}_rho95_ramp4_all_lengths.json
     done
+    ;;
+  frontier)  # diversity against quality at L = 50 (results/frontier.py): every sampling of the like-for-like pair
+    # and of n64_more as a point, from the JSONs above
+    S=$OUT/scratch_mixed; M=$OUT/from_scratch_mixed
+    python results/frontier.py --length 50 --out $OUT/frontier_L50.png \
+      "posterior (scratch_mixed), independent noise=$S/scratch_mixed_all_lengths.json+$S/scratch_mixed_noise_sweep_L50.json" \
+      "none (scratch_mixed_none), independent noise=$S/scratch_mixed_none_all_lengths.json+$S/scratch_mixed_none_noise_sweep_L50.json" \
+      "posterior (scratch_mixed), rho 0.95, ramp 4=$S/scratch_mixed_rho95_ramp4_all_lengths.json" \
+      "none (scratch_mixed_none trained again), rho 0.95, ramp 4=$S/scratch_mixed_none_rho95_ramp4_all_lengths.json" \
+      "n64_more, independent noise=$M/n64_more_all_lengths.json+$M/n64_more_noise_sweep_L50.json" \
+      "n64_more, rho 0.95, ramp 4=$M/n64_more_rho95_ramp4_all_lengths.json"
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
