@@ -2,7 +2,8 @@
 best fine-tune (`lafan1_cpu/mixed_lengths/`), its recipe from scratch (`lafan1_cpu/scratch_mixed/`, the config
 `lafan1_cpu_mixed`) and that model continued with the frames next to the keyframes weighted
 (`lafan1_cpu/from_scratch_mixed/`: `sm_near8`, and `n64_more`, below interpolation on every figure at every
-length). Today's code loads them and their transitions end exactly on the keyframes;
+length), and the recipe trained with the posterior "none" (`lafan1_cpu/scratch_mixed/`, the like-for-like
+ablation). Today's code loads them and their transitions end exactly on the keyframes;
 on the bundled subject5 windows the reproduction model still beats interpolation where the full evaluation says
 it does (ADE and NPSS at L = 30 and 50)."""
 import dataclasses
@@ -19,6 +20,7 @@ BEST = RESULTS / "mixed_lengths/models/mixed_either_fvel16"
 FROM_SCRATCH = RESULTS / "scratch_mixed/models/scratch_mixed"
 NEAR_KEYFRAMES = RESULTS / "from_scratch_mixed/models/sm_near8"
 BELOW_INTERPOLATION = RESULTS / "from_scratch_mixed/models/n64_more"
+NONE_LIKE_FOR_LIKE = RESULTS / "scratch_mixed/models/scratch_mixed_none"
 TOL_CM = 1e-4
 
 
@@ -100,3 +102,12 @@ def test_committed_model_beats_interpolation_on_the_bundled_test_windows(model):
         assert got["ade"] < interp["ade"], (length, got["ade"], interp["ade"])
         assert got["npss"] < interp["npss"], (length, got["npss"], interp["npss"])
         assert got["apd"] > 0
+
+
+def test_like_for_like_none_model_loads_and_matches_the_recipe_but_the_posterior(recipe):
+    """scratch_mixed_none: the recipe's config and steps with model.posterior "none", nothing else changed."""
+    none = trained_model.load_model(NONE_LIKE_FOR_LIKE)
+    assert none.source.endswith("step 16000") and none.config.model.posterior == "none"
+    assert dataclasses.replace(none.config.model, posterior="next_frame") == recipe.config.model
+    assert none.config.loss == recipe.config.loss and none.config.train == recipe.config.train
+    _samples_end_on_the_keyframes_and_differ(none)
