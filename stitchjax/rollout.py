@@ -479,12 +479,12 @@ def direction_frames(batch: dict, length, num_steps: int, backward: bool, data_c
     heads for (frame L + 1 forward, frame 0 backward), and "velocities" the root's mean velocity over the k
     frames from the frame before entry i's own (so k = 1 is the frame's own velocity)."""
     length = jnp.asarray(length, jnp.int32)
-    i = jnp.arange(num_steps + 1, dtype=jnp.int32)  # entry 0 = the keyframe the direction starts from
-    step = i[1:]  # direction time of the frame each entry shows
+    made = jnp.arange(1, num_steps + 1, dtype=jnp.int32)  # direction time of the frame each step makes
+    step = made  # direction time of the frame each entry shows
     if ahead > 1:
-        step = jnp.maximum(step, jnp.minimum(step + (ahead - 1), length + 1))
+        step = jnp.maximum(made, jnp.minimum(made + (ahead - 1), length + 1))
     frames = (length + 1 - step) if backward else step
-    before = (length + 2 - i[1:]) if backward else i[1:] - 1  # the frame each step starts from
+    before = (length + 2 - made) if backward else made - 1  # the frame each step starts from
 
     def take(x, index=frames):
         return jnp.take(x, index, axis=1, mode="clip")
@@ -492,7 +492,7 @@ def direction_frames(batch: dict, length, num_steps: int, backward: bool, data_c
     root = batch["root_positions"]
     velocity = take(root) - take(root, before)
     if ahead > 1:  # per frame, over the span from `before`
-        velocity = velocity / (step - i[1:] + 1).astype(root.dtype)[None, :, None]
+        velocity = velocity / (step - made + 1).astype(root.dtype)[None, :, None]
     velocity = velocity / data_config.velocity_scale
     return {"rotations": take(batch["rotations"]), "velocities": velocity, "contacts": take(batch["contacts"]),
             "global_positions": take(batch["global_positions"])}
