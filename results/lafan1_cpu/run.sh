@@ -3,7 +3,7 @@
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
 #        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
-#        evaluate_none_pair|frontier|prior25_n64|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -386,6 +386,23 @@ case "${1:-}" in
         --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
         --json $OUT/from_scratch_mixed/${run}_rho95_ramp4_all_lengths.json
     done
+    ;;
+  n64_more_none)  # the like-for-like "none" of n64_more: scratch_mixed/models/scratch_mixed_none (step 16000) taken
+    # through n64_more's five fine-tunes with model.posterior=none (sm_near8, sm_near32, n32_cont, n64, n64_more:
+    # 2400 steps each, the same learning-rate profile, the weight near the keyframes 8, 32, 32, 64, 64), alone at
+    # nice -n 5; then every length at the paper's sampling, and with the noise correlated and ramped at x1 and x2.5
+    FROM=$OUT/scratch_mixed/models/scratch_mixed_none; STEP=16000
+    for stage in 8:nn_near8 32:nn_near32 32:nn_n32 64:nn_n64 64:n64_more_none; do
+      weight=${stage%%:*}; run=${stage#*:}
+      nice -n 5 bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from $FROM \
+        --max-steps $((STEP + 2400)) --workdir runs/$run $(fine_tune_lr $STEP $((STEP + 2400))) $RECIPE \
+        loss.near_keyframe_frames=2 loss.near_keyframe_weight=$weight model.posterior=none
+      FROM=runs/$run; STEP=$((STEP + 2400))
+    done
+    all_lengths from_scratch_mixed n64_more_none
+    bin/evaluate model --checkpoint runs/n64_more_none --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+      --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
+      --json $OUT/from_scratch_mixed/n64_more_none_rho95_ramp4_all_lengths.json
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
