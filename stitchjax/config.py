@@ -22,7 +22,8 @@ import typing
 __all__ = [
     "DataConfig", "ModelConfig", "LossConfig", "TrainConfig", "PhaseConfig", "Config",
     "load_config", "apply_overrides", "to_dict", "from_dict", "save_config", "read_config",
-    "configs_dir", "ConfigError", "variant", "CHOICES",
+    "configs_dir", "ConfigError", "variant", "CHOICES", "POSTERIOR_ONLY_FIELDS", "inert_fields",
+    "check_overrides_take_effect",
 ]
 
 
@@ -329,6 +330,41 @@ CHOICES = {
     ("train", "scan_remat"): ("none", "dots", "nothing"),  # rollout.SCAN_REMAT has one policy each
     ("train", "length_after_schedule"): ("max", "uniform"),  # schedule.transition_length
 }
+
+
+# Fields that act only through the posterior q(z | h, ground truth) or on the windows drawn from the prior
+# instead of from q: with model.posterior="none" every window's z is drawn from the prior, and they change nothing.
+POSTERIOR_ONLY_FIELDS = (
+    ("model", "posterior_horizon"), ("loss", "free_bits"), ("loss", "prior_kl_weight"), ("loss", "prior_rollout"),
+    ("loss", "prior_sample_fraction"), ("loss", "prior_sample_reconstruction_weight"), ("loss", "prior_best_of"),
+)
+
+
+def inert_fields(config: Config) -> tuple:
+    """"section.field" of every field that is set away from its default but changes nothing under this
+    config: the :data:`POSTERIOR_ONLY_FIELDS` when ``model.posterior`` is "none"."""
+    if config.model.posterior != "none":
+        return ()
+    inert = []
+    for section, field in POSTERIOR_ONLY_FIELDS:
+        sub = getattr(config, section)
+        default = next(f.default for f in dataclasses.fields(sub) if f.name == field)
+        if getattr(sub, field) != default:
+            inert.append(f"{section}.{field}")
+    return tuple(inert)
+
+
+def check_overrides_take_effect(config: Config, overrides) -> None:
+    """Raise ConfigError when an override sets a field that changes nothing under ``config`` (the config with
+    the overrides applied): a run would silently train without it (:func:`inert_fields`)."""
+    inert = set(inert_fields(config))
+    given = [item.split("=", 1)[0].strip() for item in overrides or () if "=" in item]
+    wasted = [key for key in given if key in inert]
+    if wasted:
+        verb = "changes" if len(wasted) == 1 else "change"
+        raise ConfigError(f"{', '.join(wasted)} {verb} nothing with model.posterior=none (every z is drawn from "
+                          "the prior, there is no posterior): drop the override, or train with "
+                          "model.posterior=next_frame")
 
 
 def _parse_value(text: str, kind, current):

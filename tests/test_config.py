@@ -38,6 +38,24 @@ def test_bad_overrides_raise_clear_errors(bad, words):
         C.apply_overrides(C.Config(), [bad])
 
 
+def test_posterior_only_fields_are_named_inert_and_refused_as_overrides_with_posterior_none():
+    cpu = C.load_config("lafan1_cpu")
+    assert C.inert_fields(cpu) == ()  # with a posterior every field acts
+    none = C.apply_overrides(cpu, ["model.posterior=none"])
+    assert set(C.inert_fields(none)) == {"loss.free_bits", "loss.prior_sample_fraction"}  # the config's own values
+    for field, value in [("model.posterior_horizon", 4), ("loss.prior_kl_weight", 0.5), ("loss.prior_rollout", 1)]:
+        assert field in C.inert_fields(C.apply_overrides(none, [f"{field}={value}"]))
+    overrides = ["model.posterior=none", "model.posterior_horizon=4", "loss.free_bits=2"]
+    with pytest.raises(C.ConfigError, match="model.posterior_horizon, loss.free_bits change nothing"):
+        C.check_overrides_take_effect(C.apply_overrides(cpu, overrides), overrides)
+    C.check_overrides_take_effect(C.apply_overrides(cpu, overrides[1:]), overrides[1:])  # with the posterior: fine
+    # the same fields at their defaults, or fields that act on "none" too (the KL warm-up), are not refused
+    fine = ["model.posterior=none", "loss.free_bits=0", "loss.kl_warmup_steps=100"]
+    C.check_overrides_take_effect(C.apply_overrides(cpu, fine), fine)
+    assert set(C.POSTERIOR_ONLY_FIELDS) <= {(s, f.name) for s in ("model", "loss")
+                                            for f in dataclasses.fields(getattr(C.Config(), s))}
+
+
 def test_dict_and_json_round_trip(tmp_path):
     c = C.apply_overrides(C.load_config("lafan1"), ["model.encoder_widths=8,8,4", "train.batch_size=4"])
     assert C.from_dict(C.to_dict(c)) == c
