@@ -10,7 +10,9 @@ Each argument is LABEL=FILE[+FILE...], files written by `bin/evaluate model --js
 this one). Every model row of a file at that length ("model", "model_noise2", ...) is a point: x = the
 samples' mean pairwise distance per joint at mid-transition (cm), y = ADE, SLDE, NPSS or foot slide, one panel
 each; a label's points are joined in order of spread. Interpolation's value is the dashed line: a point under
-it beats interpolation on that figure. The points are printed as a table too.
+it beats interpolation on that figure. The points are printed as a table too, and for each label the widest
+sampling that is below interpolation on ADE, and on all four figures: the spread a model buys at no loss to
+interpolation.
 """
 from __future__ import annotations
 
@@ -41,6 +43,18 @@ def points(files: list[str], length: str) -> tuple[list[tuple[str, dict]], dict 
     return sorted(out, key=lambda item: item[1]["spread_mid"]), interp
 
 
+def widest_below(rows: list[tuple[str, dict]], interp: dict, keys) -> tuple[str, float] | None:
+    """(setting, mid spread in cm) of the widest point in ``rows`` (:func:`points`) whose every figure in
+    ``keys`` is below interpolation's; None when no point is."""
+    below = [(setting, r["spread_mid"]) for setting, r in rows if all(r[key] < interp[key] for key in keys)]
+    return max(below, key=lambda item: item[1]) if below else None
+
+
+def _widest_text(rows, interp, keys) -> str:
+    widest = widest_below(rows, interp, keys)
+    return "none" if widest is None else f"{widest[1]:.2f} cm ({widest[0]})"
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("series", nargs="+", help="LABEL=FILE[+FILE...]")
@@ -50,7 +64,7 @@ def main(argv=None) -> int:
     fig = Figure(figsize=(12, 8), dpi=100)
     FigureCanvasAgg(fig)
     axes = fig.subplots(2, 2).ravel()
-    interp = None
+    interp, widest = None, []
     print(f"| series | setting | mid spread (cm) | {' | '.join(title for _, title in PANELS)} |")
     print("|---|---|---|" + "---|" * len(PANELS))
     for item in args.series:
@@ -64,6 +78,13 @@ def main(argv=None) -> int:
         for setting, r in rows:
             print(f"| {label} | {setting} | {r['spread_mid']:.2f} | "
                   + " | ".join(f"{r[key]:.4g}" for key, _ in PANELS) + " |")
+        if series_interp is not None:
+            widest.append(f"| {label} | {_widest_text(rows, series_interp, ('ade',))} | "
+                          f"{_widest_text(rows, series_interp, [key for key, _ in PANELS])} |")
+    if widest:
+        print("\n| series | widest spread below interpolation on ADE | ... on ADE, SLDE, NPSS and foot slide |")
+        print("|---|---|---|")
+        print("\n".join(widest))
     for ax, (key, title) in zip(axes, PANELS):
         if interp is not None:
             ax.axhline(interp[key], color="0.3", linestyle="--", label="interpolation")

@@ -30,6 +30,15 @@ def test_points_merge_files_once_per_setting_sorted_by_spread_with_the_first_int
     assert interp["ade"] == 0.23
 
 
+def test_widest_below_interpolation_needs_every_figure_below():
+    interp = {**_row(0.0, 0.23), "slde": 0.035}
+    rows = [("x0", _row(0.0, 0.20)), ("x2", _row(5.0, 0.22)), ("x4", _row(9.0, 0.24)), ("x3", _row(7.0, 0.225))]
+    assert frontier.widest_below(rows, interp, ["ade"]) == ("x3", 7.0)
+    rows[3][1]["slde"] = 0.04  # x3 now loses to interpolation on SLDE
+    assert frontier.widest_below(rows, interp, ["ade", "slde"]) == ("x2", 5.0)
+    assert frontier.widest_below(rows, _row(0.0, 0.1), ["ade"]) is None
+
+
 def test_a_missing_length_is_refused_by_name(tmp_path):
     a = _write(tmp_path / "a.json", {"model": _row(2.0, 0.21)}, {})
     with pytest.raises(SystemExit, match="no results at L = 30"):
@@ -40,6 +49,8 @@ def test_main_writes_the_figure(tmp_path, capsys):
     a = _write(tmp_path / "a.json", {"model": _row(2.0, 0.21), "interp": _row(0.0, 0.23)}, {"model": "x1"})
     out = tmp_path / "f.png"
     assert frontier.main([f"m={a}", "--out", str(out)]) == 0
-    assert out.stat().st_size > 10000 and "| m | x1 | 2.00 |" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert out.stat().st_size > 10000 and "| m | x1 | 2.00 |" in printed
+    assert "| m | 2.00 cm (x1) | none |" in printed  # below on ADE (0.21 < 0.23), not on SLDE (equal)
     with pytest.raises(SystemExit, match="LABEL=FILE"):
         frontier.main([a, "--out", str(out)])

@@ -3,7 +3,7 @@
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
 #        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
-#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -403,6 +403,17 @@ case "${1:-}" in
     bin/evaluate model --checkpoint runs/n64_more_none --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
       --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
       --json $OUT/from_scratch_mixed/n64_more_none_rho95_ramp4_all_lengths.json
+    ;;
+  evaluate_n64_more_none)  # after n64_more_none: L = 50 at noise x2-x8 (as evaluate_n64_more for n64_more), and the
+    # pair n64_more / n64_more_none on the diversity-quality frontier at L = 50
+    M=$OUT/from_scratch_mixed
+    bin/evaluate model --checkpoint runs/n64_more_none --data "$DATA" --samples 10 --lengths 50 \
+      --noise-scales 2,3,4,6,8 --json $M/n64_more_none_noise_sweep_L50.json
+    python results/frontier.py --length 50 --out $OUT/frontier_n64_L50.png \
+      "posterior (n64_more), independent noise=$M/n64_more_all_lengths.json+$M/n64_more_noise_sweep_L50.json" \
+      "none (n64_more_none), independent noise=$M/n64_more_none_all_lengths.json+$M/n64_more_none_noise_sweep_L50.json" \
+      "posterior (n64_more), rho 0.95, ramp 4=$M/n64_more_rho95_ramp4_all_lengths.json" \
+      "none (n64_more_none), rho 0.95, ramp 4=$M/n64_more_none_rho95_ramp4_all_lengths.json"
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
