@@ -2,8 +2,7 @@
 best fine-tune (`lafan1_cpu/mixed_lengths/`), its recipe from scratch (`lafan1_cpu/scratch_mixed/`, the config
 `lafan1_cpu_mixed`) and that model continued with the frames next to the keyframes weighted
 (`lafan1_cpu/from_scratch_mixed/`: `sm_near8`, and `n64_more`, below interpolation on every figure at every
-length), and the recipe trained with the posterior "none" (`lafan1_cpu/scratch_mixed/`, the like-for-like
-ablation). Today's code loads them and their transitions end exactly on the keyframes;
+length), and the recipe and `n64_more` trained with the posterior "none" (the like-for-like ablations). Today's code loads them and their transitions end exactly on the keyframes;
 on the bundled subject5 windows the reproduction model still beats interpolation where the full evaluation says
 it does (ADE and NPSS at L = 30 and 50)."""
 import dataclasses
@@ -21,6 +20,7 @@ FROM_SCRATCH = RESULTS / "scratch_mixed/models/scratch_mixed"
 NEAR_KEYFRAMES = RESULTS / "from_scratch_mixed/models/sm_near8"
 BELOW_INTERPOLATION = RESULTS / "from_scratch_mixed/models/n64_more"
 NONE_LIKE_FOR_LIKE = RESULTS / "scratch_mixed/models/scratch_mixed_none"
+NONE_BELOW_INTERPOLATION = RESULTS / "from_scratch_mixed/models/n64_more_none"
 TOL_CM = 1e-4
 
 
@@ -110,4 +110,14 @@ def test_like_for_like_none_model_loads_and_matches_the_recipe_but_the_posterior
     assert none.source.endswith("step 16000") and none.config.model.posterior == "none"
     assert dataclasses.replace(none.config.model, posterior="next_frame") == recipe.config.model
     assert none.config.loss == recipe.config.loss and none.config.train == recipe.config.train
+    _samples_end_on_the_keyframes_and_differ(none)
+
+
+def test_like_for_like_none_of_the_model_below_interpolation_matches_it_but_the_posterior():
+    """n64_more_none: scratch_mixed_none through n64_more's five fine-tunes, nothing else changed."""
+    posterior = trained_model.load_model(BELOW_INTERPOLATION)
+    none = trained_model.load_model(NONE_BELOW_INTERPOLATION)
+    assert none.source.endswith("step 28000") and none.config.model.posterior == "none"
+    assert dataclasses.replace(none.config.model, posterior="next_frame") == posterior.config.model
+    assert none.config.loss == posterior.config.loss and none.config.train == posterior.config.train
     _samples_end_on_the_keyframes_and_differ(none)
