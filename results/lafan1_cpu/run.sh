@@ -3,7 +3,7 @@
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
 #        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
-#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -414,6 +414,24 @@ case "${1:-}" in
       "none (n64_more_none), independent noise=$M/n64_more_none_all_lengths.json+$M/n64_more_none_noise_sweep_L50.json" \
       "posterior (n64_more), rho 0.95, ramp 4=$M/n64_more_rho95_ramp4_all_lengths.json" \
       "none (n64_more_none), rho 0.95, ramp 4=$M/n64_more_none_rho95_ramp4_all_lengths.json"
+    ;;
+  prior_kl_n64)  # the committed n64_more (step 28000) continued to step 30400 with the paper's KL(p || N(0, I)) on
+    # the prior beside KL(q || p) (loss.prior_kl_weight 0.01 and 0.1; 105 nats per frame in n64_more), two side by side
+    # at nice -n 5, the same learning-rate profile (the control is best_of_n64's n64_cont); then every length,
+    # independent noise and correlated, ramped at x1 and x2.5
+    for weight in 0.01 0.1; do
+      nice -n 5 bin/train --config lafan1_cpu --data "$DATA" --no-progress \
+        --init-from $OUT/from_scratch_mixed/models/n64_more --max-steps 30400 --workdir runs/n64_pkl$weight \
+        $(fine_tune_lr 28000 30400) $RECIPE loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 \
+        loss.prior_kl_weight=$weight &
+    done
+    wait
+    all_lengths from_scratch_mixed n64_pkl0.01 n64_pkl0.1
+    for run in n64_pkl0.01 n64_pkl0.1; do
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+        --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
+        --json $OUT/from_scratch_mixed/${run}_rho95_ramp4_all_lengths.json
+    done
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
