@@ -3,8 +3,9 @@ best fine-tune (`lafan1_cpu/mixed_lengths/`), its recipe from scratch (`lafan1_c
 `lafan1_cpu_mixed`) and that model continued with the frames next to the keyframes weighted
 (`lafan1_cpu/from_scratch_mixed/`: `sm_near8`, and `n64_more`, below interpolation on every figure at every
 length), and the recipe and `n64_more` trained with the posterior "none" (the like-for-like ablations).
-Today's code loads them and their transitions end exactly on the keyframes; on the bundled subject5 windows the reproduction model still beats interpolation where the full evaluation says
-it does (ADE and NPSS at L = 30 and 50)."""
+Today's code loads them and their transitions end exactly on the keyframes; on the bundled subject5 windows the
+reproduction model still beats interpolation where the full evaluation says it does (ADE and NPSS at L = 30 and
+50)."""
 import dataclasses
 import pathlib
 
