@@ -433,21 +433,19 @@ case "${1:-}" in
         --json $OUT/from_scratch_mixed/${run}_rho95_ramp4_all_lengths.json
     done
     ;;
-  prior_kl_skate_n64)  # the prior's KL to N(0, I) at 0.02 with the foot-skate term at 256 against each alone:
-    # n64_more (step 28000) continued to step 30400 with prior_kl_weight 0.02 (n64_pkl0.02), with it and the
-    # foot-skate weight at 256 (n64_pkl0.02_s256), and the like-for-like "none" (n64_more_none continued with
-    # the foot-skate weight at 256: prior_kl_weight is inert there); three side by side at nice -n 5, the same
+  prior_kl_skate_n64)  # the prior's KL to N(0, I) at 0.02 with the foot-skate term at 256: n64_more (step 28000)
+    # continued to step 30400 with both (n64_pkl0.02_s256), and the like-for-like "none" (n64_more_none continued
+    # with the foot-skate weight at 256: prior_kl_weight is inert there); two side by side at nice -n 5, the same
     # learning-rate profile; then every length, independent noise and correlated, ramped at x1 and x2.5
     FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 30400 $(fine_tune_lr 28000 30400) $RECIPE"
     FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64"
     M=$OUT/from_scratch_mixed/models
-    nice -n 5 bin/train $FT --init-from $M/n64_more --workdir runs/n64_pkl0.02 loss.prior_kl_weight=0.02 &
     nice -n 5 bin/train $FT --init-from $M/n64_more --workdir runs/n64_pkl0.02_s256 loss.prior_kl_weight=0.02 \
       loss.foot_skate_weight=256 &
     nice -n 5 bin/train $FT --init-from $M/n64_more_none --workdir runs/nn_s256 model.posterior=none \
       loss.foot_skate_weight=256 &
     wait
-    for run in n64_pkl0.02_s256 nn_s256 n64_pkl0.02; do
+    for run in n64_pkl0.02_s256 nn_s256; do
       all_lengths from_scratch_mixed $run
       bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
         --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
