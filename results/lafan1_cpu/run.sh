@@ -3,7 +3,7 @@
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
 #        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
-#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -446,6 +446,21 @@ case "${1:-}" in
       loss.foot_skate_weight=256 &
     wait
     for run in n64_pkl0.02_s256 nn_s256; do
+      all_lengths from_scratch_mixed $run
+      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+        --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
+        --json $OUT/from_scratch_mixed/${run}_rho95_ramp4_all_lengths.json
+    done
+    ;;
+  prior_kl_skate_n64_more)  # the pair of prior_kl_skate_n64 continued to step 32800 with nothing changed, two
+    # side by side at nice -n 5, the same learning-rate profile; then every length, independent noise and
+    # correlated, ramped at x1 and x2.5
+    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
+    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=256"
+    nice -n 5 bin/train $FT --init-from runs/n64_pkl0.02_s256 --workdir runs/pks_more loss.prior_kl_weight=0.02 &
+    nice -n 5 bin/train $FT --init-from runs/nn_s256 --workdir runs/nn_s256_more model.posterior=none &
+    wait
+    for run in pks_more nn_s256_more; do
       all_lengths from_scratch_mixed $run
       bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
         --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
