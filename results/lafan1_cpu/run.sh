@@ -3,7 +3,7 @@
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
 #        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
-#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|evaluate_prior_kl_skate|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -466,6 +466,26 @@ case "${1:-}" in
         --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
         --json $OUT/from_scratch_mixed/${run}_rho95_ramp4_all_lengths.json
     done
+    ;;
+  evaluate_prior_kl_skate)  # the committed pair of prior_kl_skate_n64 (step 30400; its 2400 more steps in
+    # prior_kl_skate_n64_more were no better): L = 30 and 50 with the noise correlated and ramped at x1.25, x1.5
+    # and x2; the pair on the frontier at L = 50; the filmstrip of n64_pkl0.02_s256 correlated and ramped at x1,
+    # and the latent-space notebook on it
+    M=$OUT/from_scratch_mixed
+    SAMPLING="--noise-correlation 0.95 --noise-ramp 4"
+    for run in n64_pkl0.02_s256 nn_s256; do
+      bin/evaluate model --checkpoint $M/models/$run --data "$DATA" --samples 10 --lengths 30,50 \
+        --noise-scales 1.25,1.5,2 $SAMPLING --json $M/${run}_rho95_ramp4_sweep.json
+    done
+    P=$M/n64_pkl0.02_s256; N=$M/nn_s256
+    python results/frontier.py --length 50 --out $OUT/frontier_prior_kl_L50.png \
+      "posterior (n64_pkl0.02_s256), independent noise=${P}_all_lengths.json" \
+      "none (nn_s256), independent noise=${N}_all_lengths.json" \
+      "posterior (n64_pkl0.02_s256), rho 0.95, ramp 4=${P}_rho95_ramp4_all_lengths.json+${P}_rho95_ramp4_sweep.json" \
+      "none (nn_s256), rho 0.95, ramp 4=${N}_rho95_ramp4_all_lengths.json+${N}_rho95_ramp4_sweep.json"
+    python results/figures.py --checkpoint $M/models/n64_pkl0.02_s256 --data "$DATA" --out $M/figures_prior_kl \
+      --no-notebook $SAMPLING
+    python results/figures.py --checkpoint $M/models/n64_pkl0.02_s256 --data "$DATA" --out $M/figures_prior_kl
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
