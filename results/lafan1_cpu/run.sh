@@ -3,7 +3,7 @@
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
 #        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
-#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|evaluate_prior_kl_skate|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|evaluate_prior_kl_skate|foot_motion_prior_kl|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -486,6 +486,14 @@ case "${1:-}" in
     python results/figures.py --checkpoint $M/models/n64_pkl0.02_s256 --data "$DATA" --out $M/figures_prior_kl \
       --no-notebook $SAMPLING
     python results/figures.py --checkpoint $M/models/n64_pkl0.02_s256 --data "$DATA" --out $M/figures_prior_kl
+    ;;
+  foot_motion_prior_kl)  # why the committed pair's "none" slides its feet less at L = 45 and 50: how far the feet
+    # and the root move, beside the foot slide (results/foot_motion.py), at L = 30 and 50
+    M=$OUT/from_scratch_mixed
+    for length in 30 50; do
+      python results/foot_motion.py --data "$DATA" --length $length --json $M/foot_motion_L$length.json \
+        posterior=$M/models/n64_pkl0.02_s256 none=$M/models/nn_s256
+    done
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
