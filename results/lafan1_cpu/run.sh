@@ -3,7 +3,7 @@
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
 #        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
-#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|evaluate_prior_kl_skate|foot_motion_prior_kl|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|evaluate_prior_kl_skate|foot_motion_prior_kl|skate512_prior_kl|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -494,6 +494,19 @@ case "${1:-}" in
       python results/foot_motion.py --data "$DATA" --length $length --json $M/foot_motion_L$length.json \
         posterior=$M/models/n64_pkl0.02_s256 none=$M/models/nn_s256
     done
+    ;;
+  skate512_prior_kl)  # the committed prior-KL pair (step 30400) continued to step 32800 with the foot-skate weight at
+    # 512 (the controls are prior_kl_skate_n64_more's pks_more / nn_s256_more: the same steps at 256), two side by
+    # side at nice -n 5, the same learning-rate profile; then every length, and the feet's motion at L = 50
+    M=$OUT/from_scratch_mixed
+    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
+    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=512"
+    nice -n 5 bin/train $FT --init-from $M/models/n64_pkl0.02_s256 --workdir runs/pks512 loss.prior_kl_weight=0.02 &
+    nice -n 5 bin/train $FT --init-from $M/models/nn_s256 --workdir runs/nn_s512 model.posterior=none &
+    wait
+    all_lengths from_scratch_mixed pks512 nn_s512
+    python results/foot_motion.py --data "$DATA" --length 50 --json $M/foot_motion_skate512_L50.json \
+      posterior=runs/pks512 none=runs/nn_s512
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
