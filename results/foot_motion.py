@@ -27,7 +27,7 @@ REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from stitchjax import evaluate, lafan1, metrics, skeleton, trained_model  # noqa: E402
-from foot_slide_frames import method_positions, truth_positions  # noqa: E402  (results/, the script's folder)
+from foot_slide_frames import method_positions, truth_positions, with_keyframes  # noqa: E402  (results/, the script's folder)
 
 
 def motion_figures(positions, ground, feet, up_axis: int = 1) -> dict:
@@ -41,7 +41,7 @@ def motion_figures(positions, ground, feet, up_axis: int = 1) -> dict:
     step = np.diff(positions, axis=2)[..., horizontal]  # (S, B, T - 1, J, 2)
     foot_steps = np.linalg.norm(step[..., list(feet), :], axis=-1) * cm
     height = (positions[:, :, :-1][..., list(feet), up_axis] - ground[None, :, None, None]) * cm
-    weight = np.clip(2.0 - np.power(2.0, height / metrics.FOOT_HEIGHT_THRESHOLD_CM), 0.0, 1.0)
+    weight = metrics.foot_contact_weight(height)
     return {"foot_slide": float(weighted.sum() / max(count.sum(), 1.0)),
             "weighed_share": float((weight > 0).mean()), "mean_weight": float(weight.mean()),
             "slide_per_step_cm": float(weighted.sum() / weight.size),
@@ -67,18 +67,12 @@ def main(argv=None) -> int:
     feet, start, length = tuple(skeleton.LAFAN1_FEET), evaluate.START_FRAME, args.length
     gt = truth_positions(windows)
     ground = metrics.ground_heights(gt, feet)
-    keys = (gt[None, :, start:start + 1], gt[None, :, start + length + 1:start + length + 2])
-
-    def with_keyframes(p):
-        return np.concatenate([np.broadcast_to(keys[0], p[:, :, :1].shape), p,
-                               np.broadcast_to(keys[1], p[:, :, :1].shape)], axis=2)
-
     rows = {"ground truth": motion_figures(gt[None, :, start:start + length + 2], ground, feet)}
     for label, path in labelled:
         generated = method_positions(trained_model.load_model(path), windows, start, length, args.samples)
         for name, positions in generated.items():
             key = "interpolation" if name == "interpolation" else f"{label}, {name[len('model '):]}"
-            rows[key] = motion_figures(with_keyframes(positions), ground, feet)
+            rows[key] = motion_figures(with_keyframes(positions, gt, start, length), ground, feet)
     columns = list(rows["ground truth"])
     print(f"L = {length}, {len(windows.rotations)} windows")
     print(f"{'':28}" + "".join(f"{c:>18}" for c in columns))

@@ -42,6 +42,14 @@ def truth_positions(windows) -> np.ndarray:
                               parents)[1]
 
 
+def with_keyframes(positions, truth, start: int, length: int) -> np.ndarray:
+    """Generated frames (S, B, L, J, 3) -> (S, B, L + 2, J, 3) between the ground truth's (B, T, J, 3) start
+    keyframe ``start`` and target keyframe ``start + length + 1``."""
+    first = np.broadcast_to(truth[None, :, start:start + 1], positions[:, :, :1].shape)
+    last = np.broadcast_to(truth[None, :, start + length + 1:start + length + 2], positions[:, :, :1].shape)
+    return np.concatenate([first, positions, last], axis=2)
+
+
 def method_positions(model, windows, start: int, length: int, samples: int) -> dict:
     """Global positions (S, B, L, J, 3) of the generated frames of the test windows: {"model noise x0" (S = 1),
     "model noise x1" (S = samples), "interpolation" (S = 1)}."""
@@ -70,13 +78,7 @@ def main(argv=None) -> int:
     feet, start, length = tuple(skeleton.LAFAN1_FEET), evaluate.START_FRAME, args.length
     gt = truth_positions(windows)
     ground = metrics.ground_heights(gt, feet)
-    keys = (gt[None, :, start:start + 1], gt[None, :, start + length + 1:start + length + 2])
-
-    def with_keyframes(p):
-        return np.concatenate([np.broadcast_to(keys[0], p[:, :, :1].shape), p,
-                               np.broadcast_to(keys[1], p[:, :, :1].shape)], axis=2)
-
-    curves = {name: per_frame_slide(with_keyframes(p), ground, feet)
+    curves = {name: per_frame_slide(with_keyframes(p, gt, start, length), ground, feet)
               for name, p in method_positions(model, windows, start, length, args.samples).items()}
     curves["ground truth"] = per_frame_slide(gt[None, :, start:start + length + 2], ground, feet)
 

@@ -213,6 +213,12 @@ def ground_heights(global_positions, feet, up_axis: int = 1) -> np.ndarray:
     return heights.min(axis=(-2, -1))
 
 
+def foot_contact_weight(height_cm, height_threshold_cm: float = FOOT_HEIGHT_THRESHOLD_CM) -> np.ndarray:
+    """The foot-slide metric's weight of a foot at ``height_cm`` above the ground: clip(2 - 2^(h/H), 0, 1),
+    1 on the ground, 0 from H = ``height_threshold_cm`` up. Same shape as ``height_cm``."""
+    return np.clip(2.0 - np.power(2.0, _f64(height_cm) / height_threshold_cm), 0.0, 1.0)
+
+
 def foot_slide_parts(global_positions, ground, feet, metres_per_unit: float = LAFAN1_METRES_PER_UNIT,
                      height_threshold_cm: float = FOOT_HEIGHT_THRESHOLD_CM, up_axis: int = 1
                      ) -> tuple[np.ndarray, np.ndarray]:
@@ -230,7 +236,7 @@ def foot_slide_parts(global_positions, ground, feet, metres_per_unit: float = LA
     step = x[..., 1:, :, :] - x[..., :-1, :, :]
     displacement_cm = np.linalg.norm(step[..., horizontal], axis=-1) * cm_per_unit  # (..., B, T-1, F)
     height_cm = (x[..., :-1, :, up_axis] - _f64(ground)[:, None, None]) * cm_per_unit
-    weight = np.clip(2.0 - np.power(2.0, height_cm / height_threshold_cm), 0.0, 1.0)
+    weight = foot_contact_weight(height_cm, height_threshold_cm)
     return (weight * displacement_cm).sum(axis=(-2, -1)), (weight > 0).sum(axis=(-2, -1)).astype(np.float64)
 
 

@@ -8,7 +8,7 @@ SCRIPT = pathlib.Path(__file__).resolve().parent.parent / "results" / "foot_moti
 sys.path.insert(0, str(SCRIPT.parent))
 import foot_motion  # noqa: E402
 
-FEET = (3, 4, 7, 8)
+from stitchjax.skeleton import LAFAN1_FEET as FEET  # noqa: E402
 
 
 def _walk(height_cm: float, step_cm: float, frames: int = 5) -> np.ndarray:
