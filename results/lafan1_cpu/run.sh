@@ -31,6 +31,14 @@ all_lengths() {  # all_lengths FOLDER RUN...: every length of the protocol at no
       --noise-scales 0 --json $OUT/$folder/${run}_all_lengths.json
   done
 }
+rho_ramp_all_lengths() {  # rho_ramp_all_lengths RUN...: every length with the latent noise correlated (0.95) and
+  # ramped over 4 frames, at x1 and x2.5, for each runs/RUN, into $OUT/from_scratch_mixed/RUN_rho95_ramp4_all_lengths.json
+  for run in "$@"; do
+    bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+      --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
+      --json $OUT/from_scratch_mixed/${run}_rho95_ramp4_all_lengths.json
+  done
+}
 fine_tune_lr() {  # fine_tune_lr FROM UNTIL: the fine-tunes' learning rate, 1e-4 decaying to 2.5e-5 from step FROM
   # to step UNTIL
   echo "train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=$1 train.lr_decay_until_step=$2"
@@ -381,11 +389,7 @@ case "${1:-}" in
       $(fine_tune_lr 28000 30400) $RECIPE loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 \
       loss.prior_sample_fraction=0.25
     all_lengths from_scratch_mixed n64_prior25
-    for run in n64_prior25 n64_cont; do
-      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-        --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
-        --json $OUT/from_scratch_mixed/${run}_rho95_ramp4_all_lengths.json
-    done
+    rho_ramp_all_lengths n64_prior25 n64_cont
     ;;
   n64_more_none)  # the like-for-like "none" of n64_more: scratch_mixed/models/scratch_mixed_none (step 16000) taken
     # through n64_more's five fine-tunes with model.posterior=none (sm_near8, sm_near32, n32_cont, n64, n64_more:
@@ -400,9 +404,7 @@ case "${1:-}" in
       FROM=runs/$run; STEP=$((STEP + 2400))
     done
     all_lengths from_scratch_mixed n64_more_none
-    bin/evaluate model --checkpoint runs/n64_more_none --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-      --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
-      --json $OUT/from_scratch_mixed/n64_more_none_rho95_ramp4_all_lengths.json
+    rho_ramp_all_lengths n64_more_none
     ;;
   evaluate_n64_more_none)  # after n64_more_none: L = 50 at noise x2-x8 (as evaluate_n64_more for n64_more), and the
     # pair n64_more / n64_more_none on the diversity-quality frontier at L = 50
@@ -427,11 +429,7 @@ case "${1:-}" in
     done
     wait
     all_lengths from_scratch_mixed n64_pkl0.01 n64_pkl0.1
-    for run in n64_pkl0.01 n64_pkl0.1; do
-      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-        --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
-        --json $OUT/from_scratch_mixed/${run}_rho95_ramp4_all_lengths.json
-    done
+    rho_ramp_all_lengths n64_pkl0.01 n64_pkl0.1
     ;;
   prior_kl_skate_n64)  # the prior's KL to N(0, I) at 0.02 with the foot-skate term at 256: n64_more (step 28000)
     # continued to step 30400 with both (n64_pkl0.02_s256), and the like-for-like "none" (n64_more_none continued
@@ -447,9 +445,7 @@ case "${1:-}" in
     wait
     for run in n64_pkl0.02_s256 nn_s256; do
       all_lengths from_scratch_mixed $run
-      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-        --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
-        --json $OUT/from_scratch_mixed/${run}_rho95_ramp4_all_lengths.json
+      rho_ramp_all_lengths $run
     done
     ;;
   prior_kl_skate_n64_more)  # the pair of prior_kl_skate_n64 continued to step 32800 with nothing changed, two
@@ -462,9 +458,7 @@ case "${1:-}" in
     wait
     for run in pks_more nn_s256_more; do
       all_lengths from_scratch_mixed $run
-      bin/evaluate model --checkpoint runs/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
-        --noise-scales 2.5 --noise-correlation 0.95 --noise-ramp 4 \
-        --json $OUT/from_scratch_mixed/${run}_rho95_ramp4_all_lengths.json
+      rho_ramp_all_lengths $run
     done
     ;;
   evaluate_prior_kl_skate)  # the committed pair of prior_kl_skate_n64 (step 30400; its 2400 more steps in
