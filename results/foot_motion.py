@@ -12,7 +12,9 @@ model at noise x0 (the prior's mean path) and x1 (``--samples``), interpolation 
 L + 1 steps from the start keyframe to the target: foot slide (cm/frame, the protocol's), the share of foot
 joint-steps the protocol weighs (the foot near the ground), their mean weight, the weighted sliding per foot
 joint-step (cm: the foot slide before the protocol divides by the weighed share), the feet's horizontal movement
-per step whatever their height (cm), and the root's (cm).
+per step whatever their height (cm), and the root's (cm). The same figures over the middle third of the steps
+(far from both keyframes), and with ``--plot`` the foot slide and the feet's movement along the transition, step
+by step, of each model at noise x1, interpolation and the ground truth.
 """
 from __future__ import annotations
 
@@ -26,8 +28,8 @@ import numpy as np
 REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from stitchjax import evaluate, lafan1, metrics, skeleton, trained_model  # noqa: E402
-from foot_slide_frames import method_positions, truth_positions, with_keyframes  # noqa: E402  (results/, the script's folder)
+from stitchjax import evaluate, lafan1, metrics, plots, skeleton, trained_model  # noqa: E402
+from foot_slide_frames import method_positions, per_frame_slide, truth_positions, with_keyframes  # noqa: E402  (results/, the script's folder)
 
 
 def motion_figures(positions, ground, feet, up_axis: int = 1) -> dict:
@@ -49,6 +51,36 @@ def motion_figures(positions, ground, feet, up_axis: int = 1) -> dict:
             "root_movement_cm": float((np.linalg.norm(step[..., 0, :], axis=-1) * cm).mean())}
 
 
+def middle_third(positions) -> np.ndarray:
+    """positions (S, B, T, J, 3) -> the frames of the middle third of its T - 1 steps (the steps from frame
+    (T - 1) // 3 to frame T - 1 - (T - 1) // 3), as (S, B, T', J, 3)."""
+    steps = positions.shape[2] - 1
+    return positions[:, :, steps // 3:steps - steps // 3 + 1]
+
+
+def foot_movement_along(positions, feet, up_axis: int = 1) -> np.ndarray:
+    """positions (S, B, T, J, 3) global, data units -> (T - 1,) the feet's mean horizontal movement (cm) of
+    each step, whatever their height."""
+    horizontal = [a for a in range(3) if a != up_axis]
+    step = np.diff(positions[..., list(feet), :], axis=2)[..., horizontal]
+    return (np.linalg.norm(step, axis=-1) * metrics.LAFAN1_METRES_PER_UNIT * 100.0).mean(axis=(0, 1, 3))
+
+
+def plot_along(along: dict, length: int, windows: int, path) -> None:
+    """Write ``path`` (the foot slide of each step along the transition, cm/frame) and <stem>_movement.png (the
+    feet's movement of each step, cm) for the rows of ``along`` ({row: {"foot_slide", "foot_movement_cm"}})."""
+    path = pathlib.Path(path)
+    for key, ylabel, target in (("foot_slide", "foot slide (cm/frame)", path),
+                                ("foot_movement_cm", "feet's movement (cm/step)",
+                                 path.with_name(path.stem + "_movement.png"))):
+        plots.error_over_time({name: curves[key] for name, curves in along.items()}, first_frame=0, ylabel=ylabel,
+                              xlabel="step from transition frame t to t + 1 (0 = start keyframe)",
+                              figsize=(7.0, 3.5), dpi=120, path=target,
+                              title=f"{ylabel.split(' (')[0].capitalize()} along the transition, L = {length}, "
+                                    f"{windows} windows")
+        print(f"wrote {target}")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("models", nargs="+", help="LABEL=CHECKPOINT (a run folder or a committed model)")
@@ -56,6 +88,7 @@ def main(argv=None) -> int:
     parser.add_argument("--length", type=int, default=50, help="transition length L (default 50)")
     parser.add_argument("--samples", type=int, default=4, help="samples per window at noise x1 (default 4)")
     parser.add_argument("--json", required=True, help="file to write")
+    parser.add_argument("--plot", help="PNG of the foot slide along the transition (and <stem>_movement.png)")
     args = parser.parse_args(argv)
     labelled = []
     for item in args.models:
@@ -67,25 +100,36 @@ def main(argv=None) -> int:
     feet, start, length = tuple(skeleton.LAFAN1_FEET), evaluate.START_FRAME, args.length
     gt = truth_positions(windows)
     ground = metrics.ground_heights(gt, feet)
-    rows = {"ground truth": motion_figures(gt[None, :, start:start + length + 2], ground, feet)}
+    motions = {"ground truth": gt[None, :, start:start + length + 2]}
     for label, path in labelled:
         generated = method_positions(trained_model.load_model(path), windows, start, length, args.samples)
         for name, positions in generated.items():
             key = "interpolation" if name == "interpolation" else f"{label}, {name[len('model '):]}"
-            rows[key] = motion_figures(with_keyframes(positions, gt, start, length), ground, feet)
+            motions[key] = with_keyframes(positions, gt, start, length)
+    rows = {name: motion_figures(x, ground, feet) for name, x in motions.items()}
+    middle = {name: motion_figures(middle_third(x), ground, feet) for name, x in motions.items()}
+    along = {name: {"foot_slide": per_frame_slide(x, ground, feet).tolist(),
+                    "foot_movement_cm": foot_movement_along(x, feet).tolist()}
+             for name, x in motions.items() if not name.endswith("noise x0")}
     columns = list(rows["ground truth"])
-    print(f"L = {length}, {len(windows.rotations)} windows")
-    print(f"{'':28}" + "".join(f"{c:>18}" for c in columns))
-    for name, row in rows.items():
-        print(f"{name:28}" + "".join(f"{row[c]:18.4f}" for c in columns))
+    for title, table in ((f"L = {length}, {len(windows.rotations)} windows", rows),
+                         ("the middle third of the steps", middle)):
+        print(title)
+        print(f"{'':28}" + "".join(f"{c:>18}" for c in columns))
+        for name, row in table.items():
+            print(f"{name:28}" + "".join(f"{row[c]:18.4f}" for c in columns))
     out = pathlib.Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"length": length, "windows": int(len(windows.rotations)), "samples_noise1": args.samples,
-                               "models": dict(labelled), "rows": rows,
+                               "models": dict(labelled), "rows": rows, "rows_middle_third": middle,
+                               "along_transition": {name: {k: [round(v, 4) for v in c] for k, c in curves.items()}
+                                                    for name, curves in along.items()},
                                "units": {"foot_slide": "cm/frame", "slide_per_step_cm": "cm per foot joint-step",
                                          "foot_movement_cm": "cm per step",
                                          "root_movement_cm": "cm per step"}}, indent=1) + "\n")
     print(f"wrote {out}")
+    if args.plot:
+        plot_along(along, length, len(windows.rotations), args.plot)
     return 0
 
 

@@ -40,3 +40,17 @@ def test_the_share_of_feet_near_the_ground_divides_the_foot_slide():
     got = foot_motion.motion_figures(half, np.zeros(1), FEET)
     assert np.isclose(got["weighed_share"], 0.5) and np.isclose(got["foot_slide"], 2.0)
     assert np.isclose(got["slide_per_step_cm"], 1.0)
+
+
+def test_middle_third_and_the_feet_movement_along_the_transition():
+    """A walk that stands for 4 steps, moves 3 cm per step for 4, and stands for 4: the middle third holds the
+    moving steps alone, and the movement along the transition is 3 cm there and 0 elsewhere."""
+    x = np.concatenate([np.zeros(5), 3.0 * np.arange(1, 5), np.full(4, 12.0)])  # 13 frames, 12 steps
+    positions = np.zeros((1, 1, 13, 9, 3))
+    positions[..., 0] = x[None, None, :, None]
+    middle = foot_motion.middle_third(positions)
+    assert middle.shape[2] == 5 and np.allclose(np.diff(middle[0, 0, :, 0, 0]), 3.0)
+    along = foot_motion.foot_movement_along(positions, FEET)
+    assert along.shape == (12,) and np.allclose(along, np.diff(x))
+    figures = foot_motion.motion_figures(middle, np.zeros(1), FEET)
+    assert np.isclose(figures["foot_slide"], 3.0) and np.isclose(figures["foot_movement_cm"], 3.0)
