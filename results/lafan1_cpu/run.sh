@@ -3,7 +3,7 @@
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
 #        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
-#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|evaluate_prior_kl_skate|foot_motion_prior_kl|skate512_prior_kl|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|evaluate_prior_kl_skate|foot_motion_prior_kl|skate512_prior_kl|foot_velocity_prior_kl WEIGHT|prior_kl_velocity128|evaluate_velocity128|prior_fraction75_prior_kl|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -482,12 +482,13 @@ case "${1:-}" in
     python results/figures.py --checkpoint $M/models/n64_pkl0.02_s256 --data "$DATA" --out $M/figures_prior_kl
     ;;
   foot_motion_prior_kl)  # why the committed pair's "none" slides its feet less at L = 45 and 50: how far the feet
-    # and the root move, beside the foot slide (results/foot_motion.py), at L = 30 and 50
+    # and the root move, beside the foot slide (results/foot_motion.py), at L = 30 and 50, and at L = 50 along the
+    # transition (foot_slide_along_L50.png)
     M=$OUT/from_scratch_mixed
-    for length in 30 50; do
-      python results/foot_motion.py --data "$DATA" --length $length --json $M/foot_motion_L$length.json \
-        posterior=$M/models/n64_pkl0.02_s256 none=$M/models/nn_s256
-    done
+    python results/foot_motion.py --data "$DATA" --length 30 --json $M/foot_motion_L30.json \
+      posterior=$M/models/n64_pkl0.02_s256 none=$M/models/nn_s256
+    python results/foot_motion.py --data "$DATA" --length 50 --json $M/foot_motion_L50.json \
+      --plot $M/foot_slide_along_L50.png posterior=$M/models/n64_pkl0.02_s256 none=$M/models/nn_s256
     ;;
   skate512_prior_kl)  # the committed prior-KL pair (step 30400) continued to step 32800 with the foot-skate weight at
     # 512 (the controls are prior_kl_skate_n64_more's pks_more / nn_s256_more: the same steps at 256), two side by
@@ -501,6 +502,72 @@ case "${1:-}" in
     all_lengths from_scratch_mixed pks512 nn_s512
     python results/foot_motion.py --data "$DATA" --length 50 --json $M/foot_motion_skate512_L50.json \
       posterior=runs/pks512 none=runs/nn_s512
+    ;;
+  foot_velocity_prior_kl)  # foot_velocity_prior_kl WEIGHT: the committed prior-KL pair (step 30400) continued to
+    # step 32800 with the foot velocity weight at WEIGHT instead of 16 (64, 128; the controls are
+    # prior_kl_skate_n64_more's pks_more / nn_s256_more: the same steps at 16), two side by side at nice -n 5, the
+    # same learning-rate profile; then every length, and the feet's motion at L = 50
+    M=$OUT/from_scratch_mixed
+    W=$2
+    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
+    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=256"
+    FT="$FT loss.foot_velocity_weight=$W"
+    nice -n 5 bin/train $FT --init-from $M/models/n64_pkl0.02_s256 --workdir runs/pkv$W loss.prior_kl_weight=0.02 &
+    nice -n 5 bin/train $FT --init-from $M/models/nn_s256 --workdir runs/nn_v$W model.posterior=none &
+    wait
+    all_lengths from_scratch_mixed pkv$W nn_v$W
+    python results/foot_motion.py --data "$DATA" --length 50 --json $M/foot_motion_velocity${W}_L50.json \
+      posterior=runs/pkv$W none=runs/nn_v$W
+    ;;
+  prior_fraction75_prior_kl)  # the committed posterior (step 30400) continued to step 32800 with
+    # loss.prior_sample_fraction 0.75 instead of 0.5 (the field does nothing with "none", so the control is
+    # prior_kl_skate_n64_more's nn_s256_more: the same steps with everything else the same); then every length, and
+    # the feet's motion at L = 50
+    M=$OUT/from_scratch_mixed
+    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
+    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=256"
+    nice -n 5 bin/train $FT --init-from $M/models/n64_pkl0.02_s256 --workdir runs/pkf75 loss.prior_kl_weight=0.02 \
+      loss.prior_sample_fraction=0.75
+    all_lengths from_scratch_mixed pkf75
+    python results/foot_motion.py --data "$DATA" --length 50 --json $M/foot_motion_fraction75_L50.json \
+      posterior=runs/pkf75 none=runs/nn_s256_more
+    ;;
+  prior_kl_velocity128)  # the prior's KL weight raised back up beside the foot velocity weight at 128: the
+    # committed posterior (step 30400) continued to step 32800 as pkv128 of foot_velocity_prior_kl 128 but with
+    # loss.prior_kl_weight 0.03 and 0.04 (the field does nothing with "none", so the control is nn_v128), two side
+    # by side at nice -n 5; then every length
+    M=$OUT/from_scratch_mixed
+    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
+    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=256"
+    FT="$FT loss.foot_velocity_weight=128"
+    for weight in 0.03 0.04; do
+      nice -n 5 bin/train $FT --init-from $M/models/n64_pkl0.02_s256 --workdir runs/pkv128_pkl$weight \
+        loss.prior_kl_weight=$weight &
+    done
+    wait
+    all_lengths from_scratch_mixed pkv128_pkl0.03 pkv128_pkl0.04
+    ;;
+  evaluate_velocity128)  # the pair of foot_velocity_prior_kl 128, committed as models/pkv128 and models/nn_v128
+    # (step 32800, copied from runs/): every length correlated and ramped at x1 and x2.5 (two side by side); L = 30
+    # and 50 correlated and ramped at x1.25, x1.5 and x2; the pair on the frontier at L = 50; the filmstrip of pkv128
+    # correlated and ramped at x1, and the latent-space notebook on it
+    M=$OUT/from_scratch_mixed
+    SAMPLING="--noise-correlation 0.95 --noise-ramp 4"
+    rho_ramp_all_lengths pkv128 & rho_ramp_all_lengths nn_v128 & wait
+    for run in pkv128 nn_v128; do
+      bin/evaluate model --checkpoint $M/models/$run --data "$DATA" --samples 10 --lengths 30,50 \
+        --noise-scales 1.25,1.5,2 $SAMPLING --json $M/${run}_rho95_ramp4_sweep.json &
+    done
+    wait
+    P=$M/pkv128; N=$M/nn_v128
+    python results/frontier.py --length 50 --out $OUT/frontier_velocity128_L50.png \
+      "posterior (pkv128), independent noise=${P}_all_lengths.json" \
+      "none (nn_v128), independent noise=${N}_all_lengths.json" \
+      "posterior (pkv128), rho 0.95, ramp 4=${P}_rho95_ramp4_all_lengths.json+${P}_rho95_ramp4_sweep.json" \
+      "none (nn_v128), rho 0.95, ramp 4=${N}_rho95_ramp4_all_lengths.json+${N}_rho95_ramp4_sweep.json"
+    python results/figures.py --checkpoint $M/models/pkv128 --data "$DATA" --out $M/figures_velocity128 \
+      --no-notebook $SAMPLING
+    python results/figures.py --checkpoint $M/models/pkv128 --data "$DATA" --out $M/figures_velocity128
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
