@@ -3,7 +3,7 @@
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
 #        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
-#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|evaluate_prior_kl_skate|foot_motion_prior_kl|skate512_prior_kl|foot_velocity_prior_kl WEIGHT|prior_kl_velocity128|evaluate_velocity128|prior_fraction75_prior_kl|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|evaluate_prior_kl_skate|foot_motion_prior_kl|skate512_prior_kl|foot_velocity_prior_kl WEIGHT|prior_kl_velocity128|evaluate_velocity128|search_velocity128|prior_fraction75_prior_kl|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -568,6 +568,15 @@ case "${1:-}" in
     python results/figures.py --checkpoint $M/models/pkv128 --data "$DATA" --out $M/figures_velocity128 \
       --no-notebook $SAMPLING
     python results/figures.py --checkpoint $M/models/pkv128 --data "$DATA" --out $M/figures_velocity128
+    ;;
+  search_velocity128)  # the committed pkv128 / nn_v128 at every length with the latent-pair search (4 candidate
+    # pairs per sample), two side by side
+    M=$OUT/from_scratch_mixed
+    for run in pkv128 nn_v128; do
+      bin/evaluate model --checkpoint $M/models/$run --data "$DATA" --samples 10 --lengths 10,15,30,45,50 \
+        --search 4 --noise-scales "" --json $M/${run}_search4_all_lengths.json &
+    done
+    wait
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
