@@ -6,7 +6,8 @@ a fresh one.
   data / model / loss / phase config differs is refused (only train.* may change on resume).
 - Fine-tune (`init_from`): a new run folder starts from another run's newest state (same data, model and phase
   config; loss.*, train.* and ``config.FINE_TUNABLE_MODEL_FIELDS`` may differ), its step, optimiser moments
-  and key included.
+  and key included; a ``train.seed`` other than the source run's re-seeds that key (:func:`reseeded_key`), so
+  two fine-tunes that differ only in the seed draw different batches and noise.
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from jax.experimental import multihost_utils
 from stitchjax import checkpoints, reporting
 from stitchjax import config as config_lib
 
-__all__ = ["ResumeError", "restore_or_init", "state_from_run"]
+__all__ = ["ResumeError", "restore_or_init", "reseeded_key", "state_from_run"]
 
 
 class ResumeError(RuntimeError):
@@ -93,11 +94,20 @@ def _check_same_run(config_json: dict, workdir: pathlib.Path, manager) -> None:
             "one; resume with the same config and overrides (only train.* may change), or use a new --workdir")
 
 
+def reseeded_key(key, seed: int):
+    """The carried uint32 (2,) PRNG key of a fine-tune whose ``train.seed`` is ``seed``: fold_in(key, seed),
+    on the key's devices."""
+    new = jax.random.fold_in(key, seed)
+    sharding = getattr(key, "sharding", None)
+    return jax.device_put(new, sharding) if sharding is not None else new
+
+
 def state_from_run(config_json: dict, source: str | os.PathLike, abstract_state: Any) -> Any:
     """The newest restorable state of the run in `source`, to fine-tune under other loss / train settings.
 
     The source run must have the same data, model and phase config (the parameters must mean the same);
-    its step, optimiser state and key carry over, so the length schedule and KL warm-up go on from there.
+    its step, optimiser state and key carry over, so the length schedule and KL warm-up go on from there; when
+    ``train.seed`` differs from the source run's, the key is re-seeded (:func:`reseeded_key`) and that is said.
     abstract_state: the run's state as `jax.eval_shape` gives it (shapes, dtypes, shardings).
     Raises ResumeError naming the sections that differ, or when nothing in `source` restores.
     """
@@ -118,8 +128,15 @@ def state_from_run(config_json: dict, source: str | os.PathLike, abstract_state:
         raise ResumeError(f"--init-from {source}: {error}") from None
     finally:
         checkpoints.close(manager)
+    seed, source_seed = config_json["train"]["seed"], (saved.get("train") or {}).get("seed")
+    reseed = source_seed is not None and seed != source_seed
+    if reseed:
+        state = state.replace(key=reseeded_key(state.key, seed))
     if jax.process_index() == 0:
         print(f"starting from step {step} of {source}", file=sys.stderr)
+        if reseed:
+            print(f"train.seed={seed} (the source run's: {source_seed}): its key is re-seeded, so the batches and "
+                  "noise differ from a continuation of that run", file=sys.stderr)
     return state
 
 

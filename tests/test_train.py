@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from stitchjax import checkpoints, config as config_lib, datasets, parallel, schedule, train
+from stitchjax import checkpoints, config as config_lib, datasets, parallel, resume, schedule, train
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 FRAMES = 10  # tiny windows: transitions of up to 8 frames
@@ -159,6 +159,12 @@ def test_init_from_starts_a_new_run_from_another_runs_state(dataset, tmp_path):
     assert train.train(tuned_config, tmp_path / "tuned", max_steps=5, **kwargs)["start_step"] == 4  # resumes
     fed = tiny_config("model.keyframe_velocity=mean")  # what the generators are fed: allowed too
     assert train.train(fed, tmp_path / "fed", max_steps=5, init_from=tmp_path / "base", **kwargs)["start_step"] == 4
+    abstract = train.abstract_train_state(tiny_config())
+    same = resume.state_from_run(config_lib.to_dict(tiny_config()), tmp_path / "base", abstract)
+    other = resume.state_from_run(config_lib.to_dict(tiny_config("train.seed=1")), tmp_path / "base", abstract)
+    assert int(other.step) == int(same.step) == 4  # a new seed: the same state but the key
+    np.testing.assert_array_equal(other.key, jax.random.fold_in(same.key, 1))
+    assert not np.array_equal(other.key, same.key)
 
 
 def test_dataset_registry_has_every_allowed_name_and_its_facts():
