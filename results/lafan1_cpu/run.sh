@@ -3,7 +3,7 @@
 # Usage: bash results/lafan1_cpu/run.sh scratch|evaluate_scratch|finetune_scratch|late_prior|evaluate_late_prior|reconstruction_weight|from_skate512|evaluate_from_skate512|from_decay512|evaluate_from_decay512|either512|mixed_lengths|evaluate_mixed_lengths|from_mixed|evaluate_from_mixed|scratch_mixed|evaluate_scratch_mixed|scratch_mixed_none|from_scratch_mixed|
 #        evaluate_scratch_mixed_none|evaluate_from_scratch_mixed|near32|near32_skate|near64|near64_more|evaluate_n64_more|
 #        recon25_n64|best_of_n64|rho95_n64|rho95_best3_n64|evaluate_noise_correlation|horizon_n64|
-#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|evaluate_prior_kl_skate|foot_motion_prior_kl|skate512_prior_kl|foot_velocity_prior_kl WEIGHT|prior_kl_velocity128|evaluate_velocity128|search_velocity128|prior_fraction75_prior_kl|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
+#        evaluate_none_pair|frontier|prior25_n64|n64_more_none|evaluate_n64_more_none|prior_kl_n64|prior_kl_skate_n64|prior_kl_skate_n64_more|evaluate_prior_kl_skate|foot_motion_prior_kl|skate512_prior_kl|foot_velocity_prior_kl WEIGHT|prior_kl_velocity128|evaluate_velocity128|search_velocity128|velocity128_seed1|prior_fraction75_prior_kl|train|train_long|finetune|evaluate|evaluate_long|evaluate_finetune|figures
 # (from the repository root)
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
@@ -577,6 +577,20 @@ case "${1:-}" in
         --search 4 --noise-scales "" --json $M/${run}_search4_all_lengths.json &
     done
     wait
+    ;;
+  velocity128_seed1)  # the pair of foot_velocity_prior_kl 128 trained again with train.seed=1 (which re-seeds
+    # the key carried over from the committed pair: other batches and noise over the same 2400 steps), two side by
+    # side at nice -n 5; then every length: how far a second seed moves the figures, the margins at L = 45 and 50
+    # above all
+    M=$OUT/from_scratch_mixed
+    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
+    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=256"
+    FT="$FT loss.foot_velocity_weight=128 train.seed=1"
+    nice -n 5 bin/train $FT --init-from $M/models/n64_pkl0.02_s256 --workdir runs/pkv128_seed1 \
+      loss.prior_kl_weight=0.02 &
+    nice -n 5 bin/train $FT --init-from $M/models/nn_s256 --workdir runs/nn_v128_seed1 model.posterior=none &
+    wait
+    all_lengths from_scratch_mixed pkv128_seed1 nn_v128_seed1
     ;;
   evaluate_noise_correlation)  # the latent noise correlated from frame to frame at sampling only
     # (bin/evaluate --noise-correlation, results/noise_correlation.py): n64_more at every length with rho 0.95
