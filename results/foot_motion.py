@@ -32,6 +32,14 @@ from stitchjax import evaluate, lafan1, metrics, plots, skeleton, trained_model 
 from foot_slide_frames import method_positions, per_frame_slide, truth_positions, with_keyframes  # noqa: E402  (results/, the script's folder)
 
 
+def horizontal_movement_cm(positions, joints, up_axis: int = 1) -> np.ndarray:
+    """positions (S, B, T, J, 3) global, data units -> (S, B, T - 1, len(joints)) how far each of ``joints``
+    moves horizontally in each step (cm), whatever its height."""
+    horizontal = [a for a in range(3) if a != up_axis]
+    step = np.diff(positions[..., list(joints), :], axis=2)[..., horizontal]
+    return np.linalg.norm(step, axis=-1) * metrics.LAFAN1_METRES_PER_UNIT * 100.0
+
+
 def motion_figures(positions, ground, feet, up_axis: int = 1) -> dict:
     """positions (S, B, T, J, 3) global, data units, T = L + 2 frames with both keyframes; ground (B,) ->
     {"foot_slide" cm/frame, "weighed_share", "mean_weight", "slide_per_step_cm", "foot_movement_cm",
@@ -39,16 +47,13 @@ def motion_figures(positions, ground, feet, up_axis: int = 1) -> dict:
     sliding by the joint-steps near the ground, slide_per_step_cm by all of them."""
     weighted, count = metrics.foot_slide_parts(positions, ground, feet)
     cm = metrics.LAFAN1_METRES_PER_UNIT * 100.0
-    horizontal = [a for a in range(3) if a != up_axis]
-    step = np.diff(positions, axis=2)[..., horizontal]  # (S, B, T - 1, J, 2)
-    foot_steps = np.linalg.norm(step[..., list(feet), :], axis=-1) * cm
     height = (positions[:, :, :-1][..., list(feet), up_axis] - ground[None, :, None, None]) * cm
     weight = metrics.foot_contact_weight(height)
     return {"foot_slide": float(weighted.sum() / max(count.sum(), 1.0)),
             "weighed_share": float((weight > 0).mean()), "mean_weight": float(weight.mean()),
             "slide_per_step_cm": float(weighted.sum() / weight.size),
-            "foot_movement_cm": float(foot_steps.mean()),
-            "root_movement_cm": float((np.linalg.norm(step[..., 0, :], axis=-1) * cm).mean())}
+            "foot_movement_cm": float(horizontal_movement_cm(positions, feet, up_axis).mean()),
+            "root_movement_cm": float(horizontal_movement_cm(positions, (0,), up_axis).mean())}
 
 
 def middle_third(positions) -> np.ndarray:
@@ -61,9 +66,7 @@ def middle_third(positions) -> np.ndarray:
 def foot_movement_along(positions, feet, up_axis: int = 1) -> np.ndarray:
     """positions (S, B, T, J, 3) global, data units -> (T - 1,) the feet's mean horizontal movement (cm) of
     each step, whatever their height."""
-    horizontal = [a for a in range(3) if a != up_axis]
-    step = np.diff(positions[..., list(feet), :], axis=2)[..., horizontal]
-    return (np.linalg.norm(step, axis=-1) * metrics.LAFAN1_METRES_PER_UNIT * 100.0).mean(axis=(0, 1, 3))
+    return horizontal_movement_cm(positions, feet, up_axis).mean(axis=(0, 1, 3))
 
 
 def plot_along(along: dict, length: int, windows: int, path) -> None:
