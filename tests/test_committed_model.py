@@ -130,14 +130,14 @@ def test_like_for_like_none_of_the_model_below_interpolation_matches_it_but_the_
     _samples_end_on_the_keyframes_and_differ(none)
 
 
-def test_prior_kl_model_matches_its_none_but_the_posterior_and_spreads_its_samples_wider():
-    """n64_pkl0.02_s256: n64_more continued with the prior's KL to N(0, I) at 0.02 and the foot-skate weight at
-    256; nn_s256: n64_more_none continued the same way (prior_kl_weight changes nothing with "none"). On the
-    bundled subject5 windows the posterior's samples spread wider than "none"'s and stay below interpolation."""
-    posterior, none = trained_model.load_model(PRIOR_KL), trained_model.load_model(NONE_PRIOR_KL)
-    assert posterior.source.endswith("step 30400") and none.source.endswith("step 30400")
-    assert posterior.config.loss.prior_kl_weight == 0.02 and posterior.config.loss.foot_skate_weight == 256
-    assert none.config.model.posterior == "none"
+def _prior_kl_pair_on_the_bundled_windows(posterior_path, none_path, step: int) -> tuple[dict, dict]:
+    """Load a posterior model trained with the prior's KL at 0.02 and its like-for-like "none"; check that their
+    configs differ only in the posterior (prior_kl_weight changes nothing with "none") and that the posterior's
+    samples end on the keyframes. Returns ({"posterior", "none"} models, the protocol's results at L = 30 and 50 on
+    the bundled subject5 windows, 4 samples, of both and interpolation)."""
+    posterior, none = trained_model.load_model(posterior_path), trained_model.load_model(none_path)
+    assert posterior.source.endswith(f"step {step}") and none.source.endswith(f"step {step}")
+    assert posterior.config.loss.prior_kl_weight == 0.02 and none.config.model.posterior == "none"
     assert dataclasses.replace(none.config.model, posterior="next_frame") == posterior.config.model
     assert dataclasses.replace(none.config.loss, prior_kl_weight=0.02) == posterior.config.loss
     assert none.config.train == posterior.config.train
@@ -146,6 +146,15 @@ def test_prior_kl_model_matches_its_none_but_the_posterior_and_spreads_its_sampl
     methods = {"posterior": evaluate.model_method(posterior), "none": evaluate.model_method(none),
                "interp": evaluate.BASELINE_METHODS["interp"]}
     out = evaluate.evaluate_protocol(methods, windows, stats, lengths=(30, 50), samples=4, progress=False)
+    return {"posterior": posterior, "none": none}, out
+
+
+def test_prior_kl_model_matches_its_none_but_the_posterior_and_spreads_its_samples_wider():
+    """n64_pkl0.02_s256: n64_more continued with the prior's KL to N(0, I) at 0.02 and the foot-skate weight at
+    256; nn_s256: n64_more_none continued the same way (prior_kl_weight changes nothing with "none"). On the
+    bundled subject5 windows the posterior's samples spread wider than "none"'s and stay below interpolation."""
+    models, out = _prior_kl_pair_on_the_bundled_windows(PRIOR_KL, NONE_PRIOR_KL, 30400)
+    assert models["posterior"].config.loss.foot_skate_weight == 256
     for length, entry in out["lengths"].items():
         got, other, interp = entry["posterior"], entry["none"], entry["interp"]
         # measured when it was committed (19 windows, 4 samples): APD 0.448 / 0.803 m against "none"'s 0.292 /
@@ -159,18 +168,8 @@ def test_foot_velocity_model_matches_its_none_but_the_posterior_and_beats_it_on_
     """pkv128: n64_pkl0.02_s256 continued with the foot velocity weight at 128; nn_v128: nn_s256 continued the same
     way. On the bundled subject5 windows the posterior's samples spread wider than "none"'s, and its ADE, NPSS and
     foot slide are below "none"'s and interpolation's."""
-    posterior, none = trained_model.load_model(FOOT_VELOCITY), trained_model.load_model(NONE_FOOT_VELOCITY)
-    assert posterior.source.endswith("step 32800") and none.source.endswith("step 32800")
-    assert posterior.config.loss.foot_velocity_weight == 128 and posterior.config.loss.prior_kl_weight == 0.02
-    assert none.config.model.posterior == "none"
-    assert dataclasses.replace(none.config.model, posterior="next_frame") == posterior.config.model
-    assert dataclasses.replace(none.config.loss, prior_kl_weight=0.02) == posterior.config.loss
-    assert none.config.train == posterior.config.train
-    _samples_end_on_the_keyframes_and_differ(posterior)
-    windows, stats = lafan1.test_windows(sample.sample_dir()), lafan1.train_statistics(sample.sample_dir())
-    methods = {"posterior": evaluate.model_method(posterior), "none": evaluate.model_method(none),
-               "interp": evaluate.BASELINE_METHODS["interp"]}
-    out = evaluate.evaluate_protocol(methods, windows, stats, lengths=(30, 50), samples=4, progress=False)
+    models, out = _prior_kl_pair_on_the_bundled_windows(FOOT_VELOCITY, NONE_FOOT_VELOCITY, 32800)
+    assert models["posterior"].config.loss.foot_velocity_weight == 128
     for length, entry in out["lengths"].items():
         got, other, interp = entry["posterior"], entry["none"], entry["interp"]
         # measured when it was committed (19 windows, 4 samples): APD 0.336 / 0.592 m against "none"'s 0.295 /
