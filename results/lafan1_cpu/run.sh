@@ -43,6 +43,11 @@ fine_tune_lr() {  # fine_tune_lr FROM UNTIL: the fine-tunes' learning rate, 1e-4
   # to step UNTIL
   echo "train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=$1 train.lr_decay_until_step=$2"
 }
+prior_kl_pair_fine_tune() {  # the options of every 2400-step fine-tune of the committed prior-KL pair (step 30400
+  # to 32800): the fine-tunes' learning rate, the recipe and the two frames next to each keyframe weighted at 64
+  echo "--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE" \
+    "loss.near_keyframe_frames=2 loss.near_keyframe_weight=64"
+}
 case "${1:-}" in
   scratch)  # the reproduction from scratch with prior samples and the foot-skate term from step 0 (configs/lafan1_cpu.py),
     # "none" trained the same way, and from step 2000 the height-weighted foot-skate term; the three went side by
@@ -451,8 +456,7 @@ case "${1:-}" in
   prior_kl_skate_n64_more)  # the pair of prior_kl_skate_n64 continued to step 32800 with nothing changed, two
     # side by side at nice -n 5, the same learning-rate profile; then every length, independent noise and
     # correlated, ramped at x1 and x2.5
-    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
-    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=256"
+    FT="$(prior_kl_pair_fine_tune) loss.foot_skate_weight=256"
     nice -n 5 bin/train $FT --init-from runs/n64_pkl0.02_s256 --workdir runs/pks_more loss.prior_kl_weight=0.02 &
     nice -n 5 bin/train $FT --init-from runs/nn_s256 --workdir runs/nn_s256_more model.posterior=none &
     wait
@@ -494,8 +498,7 @@ case "${1:-}" in
     # 512 (the controls are prior_kl_skate_n64_more's pks_more / nn_s256_more: the same steps at 256), two side by
     # side at nice -n 5, the same learning-rate profile; then every length, and the feet's motion at L = 50
     M=$OUT/from_scratch_mixed
-    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
-    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=512"
+    FT="$(prior_kl_pair_fine_tune) loss.foot_skate_weight=512"
     nice -n 5 bin/train $FT --init-from $M/models/n64_pkl0.02_s256 --workdir runs/pks512 loss.prior_kl_weight=0.02 &
     nice -n 5 bin/train $FT --init-from $M/models/nn_s256 --workdir runs/nn_s512 model.posterior=none &
     wait
@@ -509,8 +512,7 @@ case "${1:-}" in
     # same learning-rate profile; then every length, and the feet's motion at L = 50
     M=$OUT/from_scratch_mixed
     W=$2
-    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
-    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=256"
+    FT="$(prior_kl_pair_fine_tune) loss.foot_skate_weight=256"
     FT="$FT loss.foot_velocity_weight=$W"
     nice -n 5 bin/train $FT --init-from $M/models/n64_pkl0.02_s256 --workdir runs/pkv$W loss.prior_kl_weight=0.02 &
     nice -n 5 bin/train $FT --init-from $M/models/nn_s256 --workdir runs/nn_v$W model.posterior=none &
@@ -524,8 +526,7 @@ case "${1:-}" in
     # prior_kl_skate_n64_more's nn_s256_more: the same steps with everything else the same); then every length, and
     # the feet's motion at L = 50
     M=$OUT/from_scratch_mixed
-    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
-    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=256"
+    FT="$(prior_kl_pair_fine_tune) loss.foot_skate_weight=256"
     nice -n 5 bin/train $FT --init-from $M/models/n64_pkl0.02_s256 --workdir runs/pkf75 loss.prior_kl_weight=0.02 \
       loss.prior_sample_fraction=0.75
     all_lengths from_scratch_mixed pkf75
@@ -537,8 +538,7 @@ case "${1:-}" in
     # loss.prior_kl_weight 0.03 and 0.04 (the field does nothing with "none", so the control is nn_v128), two side
     # by side at nice -n 5; then every length
     M=$OUT/from_scratch_mixed
-    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
-    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=256"
+    FT="$(prior_kl_pair_fine_tune) loss.foot_skate_weight=256"
     FT="$FT loss.foot_velocity_weight=128"
     for weight in 0.03 0.04; do
       nice -n 5 bin/train $FT --init-from $M/models/n64_pkl0.02_s256 --workdir runs/pkv128_pkl$weight \
@@ -583,8 +583,7 @@ case "${1:-}" in
     # side at nice -n 5; then every length: how far a second seed moves the figures, the margins at L = 45 and 50
     # above all
     M=$OUT/from_scratch_mixed
-    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE"
-    FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 loss.foot_skate_weight=256"
+    FT="$(prior_kl_pair_fine_tune) loss.foot_skate_weight=256"
     FT="$FT loss.foot_velocity_weight=128 train.seed=1"
     nice -n 5 bin/train $FT --init-from $M/models/n64_pkl0.02_s256 --workdir runs/pkv128_seed1 \
       loss.prior_kl_weight=0.02 &
