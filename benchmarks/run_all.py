@@ -473,14 +473,16 @@ def section_train(args, results: dict) -> dict:
 
     batch_size, length = args.train_batch, args.train_length
     run_bf16 = results["bf16"]["run"]
-    config = bench_config(batch_size, length)
-    log(f"train: compiling stitchjax step (batch {batch_size}, length {length}) ...")
+    scan_remat = [f"train.scan_remat={args.scan_remat}"]  # stitchjax only: the same gradients either way
+    config = bench_config(batch_size, length, scan_remat)
+    log(f"train: compiling stitchjax step (batch {batch_size}, length {length}, train.scan_remat="
+        f"{args.scan_remat}) ...")
     jax_train = JaxTrain(config, length)
     log(f"train: compiled in {jax_train.compile_s:.1f} s")
     jax_train_bf16 = None
     if run_bf16:
         log("train: the same with model.matmul_dtype=bfloat16 ...")
-        jax_train_bf16 = JaxTrain(bench_config(batch_size, length, [BFLOAT16]), length)
+        jax_train_bf16 = JaxTrain(bench_config(batch_size, length, [BFLOAT16] + scan_remat), length)
     default_threads = torch.get_num_threads()
     params, phase_params = jax_train.state.params, jax_train.state.phase_params  # before any step donates them
     twin = torch_twin.Twin(config)
@@ -525,6 +527,7 @@ def section_train(args, results: dict) -> dict:
     fraction = flop["hlo_matmul_flops"] / jax_s / peak["theoretical"]["flops"]
     out = {
         "batch": batch_size, "transition_length": length, "window": length + 2, "reps": args.train_reps,
+        "scan_remat": args.scan_remat,
         "model": "lafan1 defaults (posterior next_frame, z at every decoder layer, no LSTM state in the decoder, "
                  "gamma per direction, contact inputs without gradient)",
         "jax_compile_s": jax_train.compile_s, "timings": timings,
@@ -776,6 +779,9 @@ def main(argv=None) -> int:
     parser.add_argument("--torch-threads", choices=("both", "faster"), default=None,
                         help="eager twin timed at torch's default threads and at 1 (both; the default) or only at "
                              "the faster of the two in a one-call probe (faster; the --quick default)")
+    parser.add_argument("--scan-remat", default="none",
+                        help="train.scan_remat of stitchjax's train step in the train section (none, dots, nothing, "
+                             "taped; default none, the config default); the twins compute the same gradients")
     parser.add_argument("--worker-devices", type=int, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--worker-reps", type=int, default=3, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)

@@ -213,7 +213,10 @@ class TrainConfig:
     scan_remat: str = "none"  # reason: what the rollout's scan keeps for the backward pass (rollout.SCAN_REMAT):
     # "none" = every intermediate (autodiff's default); "dots" = only matmul outputs, the elementwise work
     # between them is recomputed in the backward pass (fewer stacked buffers); "nothing" = only the carry
-    # (the whole step recomputed); same gradients (benchmarks/README.md has the measured step times)
+    # (the whole step recomputed); "taped" = the scan runs once undifferentiated, recording each matmul input
+    # and activation once, then replays that tape differentiated (stitchjax/tape.py; needs
+    # weight_gradients_after_scan and a tapeable model.activation); same gradients (benchmarks/README.md has
+    # the measured step times and bytes copied and stacked)
     length_buckets: tuple = (12, 24, 50)  # reason: static scan lengths (window cut to bucket + 2 frames,
     # one compile each) instead of one traced length masked in the full window. Measured on 2 loaded CPU
     # cores, lafan1 model, batch 32 (benchmarks/train_step.py): window 50 = 6.26 s/step, 96 s compile;
@@ -332,7 +335,7 @@ CHOICES = {
     ("model", "keyframe_velocity"): ("zero", "mean"),
     ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
     ("loss", "foot_skate_contacts"): ("truth", "height", "height_either"),
-    ("train", "scan_remat"): ("none", "dots", "nothing"),  # rollout.SCAN_REMAT has one policy each
+    ("train", "scan_remat"): ("none", "dots", "nothing", "taped"),  # rollout.SCAN_REMAT has one policy each
     ("train", "length_after_schedule"): ("max", "uniform"),  # schedule.transition_length
 }
 

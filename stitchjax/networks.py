@@ -21,7 +21,8 @@ Every generator matmul goes through :func:`kernel_matmul`, so the rollout can ta
 of its scan (``train.weight_gradients_after_scan``, see ``rollout.py``): under a ``"probes"`` variable
 collection each product ``x @ W`` gets a zero probe added and records its input ``x``; the probe's
 gradient is the product's output gradient, and ``dW = sum over steps of x^T dy`` becomes one large matmul.
-``model.matmul_dtype`` sets the precision of those matmuls' operands (:func:`matmul`).
+``model.matmul_dtype`` sets the precision of those matmuls' operands (:func:`matmul`). Every nonlinearity of
+the step is a tape point (``stitchjax.tape``), so ``train.scan_remat="taped"`` can record it once and replay it.
 
 Discriminators (RMIB style): a temporal convolution whose kernel spans the whole window (2 or 10 frames)
 over per-frame features, then dense layers; one score per window position.
@@ -36,10 +37,12 @@ import jax
 import jax.numpy as jnp
 
 from stitchjax import features
+from stitchjax import tape
 from stitchjax.config import CHOICES
 
 __all__ = [
-    "MATMUL_DTYPES", "elu", "matmul", "kernel_matmul", "Dense", "LSTMCell", "MLP", "MoEDense", "Generator",
+    "MATMUL_DTYPES", "SHARED_PROBES", "KERNEL_OUTPUT_TAPES", "elu", "matmul", "kernel_matmul", "input_size",
+    "Dense", "LSTMCell", "MLP", "MoEDense", "Generator",
     "Posterior", "LatentMLP", "decode", "sample_latent", "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry", "blend_gaussians",
     "disc_feature_dim", "phase_dim", "generator_input_dims",
 ]
@@ -71,6 +74,9 @@ def activation_fn(name: str):
     except KeyError:
         raise ValueError(f"unknown activation {name!r}; use one of {', '.join(_ACTIVATIONS)}") from None
 
+
+# What a layer may apply to its matmul output: the activations, and the identity / softmax of output layers.
+_LAYER_FUNCTIONS = {**_ACTIVATIONS, "identity": lambda y: y, "softmax": lambda y: jax.nn.softmax(y, axis=-1)}
 
 MATMUL_DTYPES = {name: jnp.dtype(name) for name in CHOICES[("model", "matmul_dtype")]}
 
@@ -113,34 +119,67 @@ def _low_precision_matmul_backward(dtype, residuals, dy):
 _low_precision_matmul.defvjp(_low_precision_matmul_forward, _low_precision_matmul_backward)
 
 
+# Kernels whose product is only ever summed with another kernel's product (the LSTM's gates): they share
+# that kernel's probe, whose gradient is the sum's output gradient, so the scan stacks it once.
+SHARED_PROBES = {"hidden_kernel": "input_kernel"}
+_LSTM_GATES = ("input_gate", "forget_gate", "cell_input", "output_gate")  # the gate order i, f, g, o
+# Replayed (train.scan_remat="taped"): each kernel's output gradient is the cotangent of these output-tape
+# points of its module (tape.OUTPUT_TAPE), concatenated along the output axis in this order.
+KERNEL_OUTPUT_TAPES = {"kernel": ("output",), "input_kernel": _LSTM_GATES, "hidden_kernel": _LSTM_GATES}
+
+
 def kernel_matmul(module: nn.Module, x, kernel, name: str, dtype: str = "float32"):
     """``x @ kernel`` (kernel (in, ...) flattened to (in, out)) for ``module``'s parameter ``name``.
 
+    x: (..., in), or a tuple of parts (..., in_i) whose concatenation is the input (the parts are recorded
+    apart, so a part that is also another matmul's input or a taped value is recorded once).
     dtype: the operands' precision (see :func:`matmul`); the result is float32 either way.
 
-    Plain matmul, unless the apply call passes a ``"probes"`` collection holding ``name`` for this module
-    (gradient probing, used by ``rollout.rollout_batch``): then the kernel is held constant, a zero probe
-    (..., out) is added to the product and the input x is stored in the mutable ``"inputs"`` collection.
-    The caller recovers the kernel gradient as x^T (gradient of the probe).
+    Plain matmul, except: with a mutable ``"inputs"`` collection the input (or its parts) is recorded under
+    ``name``; with a ``"probes"`` collection holding ``name`` (gradient probing, ``rollout.rollout_batch``)
+    the kernel is held constant and the zero probe (..., out) is added to the product (a kernel of
+    SHARED_PROBES is held constant and adds none: the other kernel's probe serves both). Replaying a tape
+    (``stitchjax.tape``) the kernel is held constant too: its output tape's cotangent is the output gradient.
+    The caller recovers the kernel gradient as x^T (output gradient) from the recorded inputs.
     """
+    parts = tuple(x) if isinstance(x, (tuple, list)) else (x,)
+    x = parts[0] if len(parts) == 1 else jnp.concatenate(parts, axis=-1)
     flat = kernel.reshape(kernel.shape[0], -1)
-    if not module.has_variable("probes", name):
+    if module.is_mutable_collection("inputs") and not module.is_initializing():
+        module.put_variable("inputs", name, parts if len(parts) > 1 else x)
+    probe = SHARED_PROBES.get(name, name)
+    if module.has_variable(tape.OUTPUT_TAPE, KERNEL_OUTPUT_TAPES[name][0]):  # replayed: the output tape probes
+        return matmul(x, jax.lax.stop_gradient(flat), dtype)
+    if not module.has_variable("probes", probe):
         return matmul(x, flat, dtype)
-    module.put_variable("inputs", name, x)
-    return matmul(x, jax.lax.stop_gradient(flat), dtype) + module.get_variable("probes", name)
+    y = matmul(x, jax.lax.stop_gradient(flat), dtype)
+    return y if probe != name else y + module.get_variable("probes", name)
+
+
+def input_size(x) -> int:
+    """Last-axis size of a matmul input or of the concatenation of its parts (:func:`kernel_matmul`)."""
+    parts = tuple(x) if isinstance(x, (tuple, list)) else (x,)
+    return sum(part.shape[-1] for part in parts)
 
 
 class Dense(nn.Module):
-    """Dense layer x (..., in) -> (..., features), flax ``nn.Dense`` initialisation and parameter names."""
+    """Dense layer x (..., in) -> activation(x @ kernel + bias) (..., features), flax ``nn.Dense``
+    initialisation and parameter names; x may be a tuple of parts (:func:`kernel_matmul`).
+
+    activation: a ``model.activation`` name, "identity" or "softmax" (over the features); taped as the
+    output-tape point "output" (``stitchjax.tape``).
+    """
 
     features: int
     matmul_dtype: str = "float32"
+    activation: str = "identity"
 
     @nn.compact
     def __call__(self, x):
-        kernel = self.param("kernel", nn.initializers.lecun_normal(), (x.shape[-1], self.features))
+        kernel = self.param("kernel", nn.initializers.lecun_normal(), (input_size(x), self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.features,))
-        return kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype) + bias
+        y = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype) + bias
+        return tape.tape_point(self, "output", self.activation, y, _LAYER_FUNCTIONS[self.activation], True)
 
 
 def _orthogonal_blocks(key, shape, dtype=jnp.float32):
@@ -153,6 +192,7 @@ def _orthogonal_blocks(key, shape, dtype=jnp.float32):
 class LSTMCell(nn.Module):
     """LSTM cell with fused gate kernels: carry (c, h) each (..., H), x (..., in) -> (carry, h).
 
+    x may be a tuple of parts (:func:`kernel_matmul`).
     gates = x @ input_kernel (in, 4H) + h @ hidden_kernel (H, 4H) + bias (4H), gate order i, f, g, o;
     c' = sigmoid(f) c + sigmoid(i) tanh(g), h' = sigmoid(o) tanh(c'). Initialisation as flax's LSTM
     cells (LeCun normal input kernel, orthogonal hidden kernel per gate, zero bias). Two matmuls per
@@ -166,32 +206,35 @@ class LSTMCell(nn.Module):
     def __call__(self, carry, x):
         c, h = carry
         hidden = self.features
-        input_kernel = self.param("input_kernel", nn.initializers.lecun_normal(), (x.shape[-1], 4 * hidden))
+        input_kernel = self.param("input_kernel", nn.initializers.lecun_normal(), (input_size(x), 4 * hidden))
         hidden_kernel = self.param("hidden_kernel", _orthogonal_blocks, (hidden, 4 * hidden))
         bias = self.param("bias", nn.initializers.zeros, (4 * hidden,))
         gates = (kernel_matmul(self, x, input_kernel, "input_kernel", self.matmul_dtype)
                  + kernel_matmul(self, h, hidden_kernel, "hidden_kernel", self.matmul_dtype) + bias)
-        i, f, g, o = jnp.split(gates, 4, axis=-1)
-        c = jax.nn.sigmoid(f) * c + jax.nn.sigmoid(i) * jnp.tanh(g)
-        h = jax.nn.sigmoid(o) * jnp.tanh(c)
+        i, f, g, o = (tape.tape_point(self, name, kind, gate, fn, True) for name, kind, fn, gate in zip(
+            _LSTM_GATES, ("sigmoid", "sigmoid", "tanh", "sigmoid"),
+            (jax.nn.sigmoid, jax.nn.sigmoid, jnp.tanh, jax.nn.sigmoid), jnp.split(gates, 4, axis=-1)))
+        c = f * c + i * g
+        h = o * tape.tape_point(self, "cell_tanh", "tanh", c, jnp.tanh)
         return (c, h), h
 
 
 class MLP(nn.Module):
-    """Dense layers of the given widths; activation after every layer but (optionally) the last."""
+    """Dense layers of the given widths; activation after every layer but (optionally) the last, which then
+    applies ``last_activation``."""
 
     widths: tuple
     activation: str = "elu"
     activate_last: bool = True
     matmul_dtype: str = "float32"
+    last_activation: str = "identity"  # the last layer's, without activate_last ("softmax": gating)
 
     @nn.compact
     def __call__(self, x):
-        act = activation_fn(self.activation)
         for i, width in enumerate(self.widths):
-            x = Dense(width, self.matmul_dtype, name=f"dense_{i}")(x)
-            if self.activate_last or i < len(self.widths) - 1:
-                x = act(x)
+            last = i == len(self.widths) - 1
+            activation = self.last_activation if last and not self.activate_last else self.activation
+            x = Dense(width, self.matmul_dtype, activation, name=f"dense_{i}")(x)
         return x
 
 
@@ -213,10 +256,11 @@ class MoEDense(nn.Module):
     def __call__(self, x, coefficients):
         init = nn.initializers.variance_scaling(1.0, "fan_in", "truncated_normal", in_axis=0, out_axis=-1,
                                                 batch_axis=(1,))
-        kernel = self.param("kernel", init, (x.shape[-1], self.num_experts, self.features))
+        kernel = self.param("kernel", init, (input_size(x), self.num_experts, self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.num_experts, self.features))
         flat = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype)
-        expert_outputs = flat.reshape(x.shape[:-1] + (self.num_experts, self.features)) + bias
+        expert_outputs = flat.reshape(flat.shape[:-1] + (self.num_experts, self.features)) + bias
+        expert_outputs = tape.tape_point(self, "output", "identity", expert_outputs, lambda v: v, True)
         return jnp.einsum("...e,...eo->...o", coefficients, expert_outputs)
 
 
@@ -276,8 +320,7 @@ class Generator(nn.Module):
         e_state = MLP(tuple(m.encoder_widths), m.activation, matmul_dtype=dt, name="state_encoder")(state)
         e_offset = MLP(tuple(m.encoder_widths), m.activation, matmul_dtype=dt, name="offset_encoder")(offset)
         e_target = MLP(tuple(m.encoder_widths), m.activation, matmul_dtype=dt, name="target_encoder")(target)
-        x = jnp.concatenate([e_state, e_offset, e_target], axis=-1)
-        carry, h = LSTMCell(m.lstm_size, dt, name="lstm")(carry, x)
+        carry, h = LSTMCell(m.lstm_size, dt, name="lstm")(carry, (e_state, e_offset, e_target))
         current_head = Dense(2 * latent, dt, name="current_head")(h)
         target_head = Dense(2 * latent, dt, name="target_head")(h)
         mu, logvar = current_head[..., :latent], current_head[..., latent:]
@@ -295,9 +338,9 @@ class Generator(nn.Module):
         if use_prior is not None:
             z = jnp.where(use_prior, sample_latent(mu_b, logvar_b, eps), z)
 
-        y = jnp.concatenate([z, state, target] + ([h] if m.decoder_uses_lstm else []), axis=-1)
+        y = (z, state, target) + ((h,) if m.decoder_uses_lstm else ())
         num_out = 3 + data.num_joints * 4 + data.num_contacts
-        y = decode(y, z, phase, m, num_out)
+        y = decode(self, y, z, phase, m, num_out)
         n = data.num_joints * 4
         outputs = {
             "velocity": y[..., :3], "rotation_update": y[..., 3:3 + n], "contact_logits": y[..., 3 + n:],
@@ -321,14 +364,14 @@ class Posterior(nn.Module):
 
     @nn.compact
     def __call__(self, h, state, next_state):
-        x = jnp.concatenate([h, next_state, next_state - state], axis=-1)
-        x = activation_fn(self.activation)(Dense(self.width, self.matmul_dtype, name="hidden")(x))
+        x = Dense(self.width, self.matmul_dtype, self.activation, name="hidden")((h, next_state, next_state - state))
         out = Dense(2 * self.latent_dim, self.matmul_dtype, name="head")(x)
         return out[..., :self.latent_dim], out[..., self.latent_dim:]
 
 
-def decode(y, z, phase, model_config, num_out: int):
-    """The decoder, called inside :class:`Generator`: y (in,) -> (num_out,).
+def decode(module: nn.Module, y, z, phase, model_config, num_out: int):
+    """The decoder, called inside :class:`Generator` (``module``, which holds its activations' tape points):
+    y (in,) or a tuple of parts -> (num_out,).
 
     Phase modulation: a mixture of E experts per layer (``expert_0``, ...) whose coefficients come from the
     gating MLP (``gating``) on the phase features; otherwise a plain MLP (``decoder``). With
@@ -341,16 +384,15 @@ def decode(y, z, phase, model_config, num_out: int):
     dt = m.matmul_dtype
     if not m.phase_modulation:
         return LatentMLP(widths, m.activation, m.z_every_layer, dt, name="decoder")(y, z)
-    gating = MLP(tuple(m.gating_widths) + (m.num_experts,), m.activation, activate_last=False,
-                 matmul_dtype=dt, name="gating")(phase)
-    coefficients = jax.nn.softmax(gating, axis=-1)
+    coefficients = MLP(tuple(m.gating_widths) + (m.num_experts,), m.activation, activate_last=False,
+                       matmul_dtype=dt, last_activation="softmax", name="gating")(phase)
     act = activation_fn(m.activation)
     for i, width in enumerate(widths):
         if i > 0 and m.z_every_layer:
-            y = jnp.concatenate([y, z], axis=-1)
+            y = (y, z)
         y = MoEDense(width, m.num_experts, dt, name=f"expert_{i}")(y, coefficients)
         if i < len(widths) - 1:
-            y = act(y)
+            y = tape.tape_point(module, f"decoder_activation_{i}", m.activation, y, act)
     return y
 
 
@@ -365,13 +407,11 @@ class LatentMLP(nn.Module):
 
     @nn.compact
     def __call__(self, y, z):
-        act = activation_fn(self.activation)
         for i, width in enumerate(self.widths):
             if i > 0 and self.z_every_layer:
-                y = jnp.concatenate([y, z], axis=-1)
-            y = Dense(width, self.matmul_dtype, name=f"dense_{i}")(y)
-            if i < len(self.widths) - 1:
-                y = act(y)
+                y = (y, z)
+            activation = self.activation if i < len(self.widths) - 1 else "identity"
+            y = Dense(width, self.matmul_dtype, activation, name=f"dense_{i}")(y)
         return y
 
 

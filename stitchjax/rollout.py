@@ -31,7 +31,9 @@ Latent source: with ``ground_truth`` (training, ``model.posterior="next_frame"``
 posterior q(z | h, ground-truth state of the frame it makes); without it z comes from the prior p (inference).
 
 Gradients: with ``train.weight_gradients_after_scan`` (default) the generators' kernel gradients are formed
-after the scan, one matmul per kernel (``stitchjax.scan_gradients``); same numbers, less time.
+after the scan, one matmul per kernel (``stitchjax.scan_gradients``); same numbers, less time. With
+``train.scan_remat="taped"`` the scan runs twice, recording then replaying a tape (``stitchjax.tape``), so
+that each value the backward pass needs is stacked once.
 """
 from __future__ import annotations
 
@@ -45,11 +47,14 @@ from stitchjax import phase as phase_lib
 from stitchjax import rotations as R
 from stitchjax import scan_gradients
 from stitchjax import skeleton as skel
+from stitchjax import tape as tape_lib
+from stitchjax.config import CHOICES
 
 __all__ = ["rollout", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule", "interpolation_weight",
            "aligning_step", "stitch", "keyframe_velocity", "keyframe_states", "direction_frames",
            "next_frame_states", "correlated_noise", "prior_sample_flags", "GAUSSIAN_KEYS"]
 
+_ACTIVATION_NAMES = CHOICES[("model", "activation")]
 GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend", "mu_posterior",
                  "logvar_posterior")
 
@@ -94,14 +99,16 @@ def _phase(config, phase_params, state):
 
 
 def _step(params, phase_params, config, carry, current, target, distance, gamma, eps, probes=None,
-          next_state=None, use_prior=None):
+          next_state=None, use_prior=None, tape=None, record=()):
     """One generator step: frame dicts (rotations (J,4), root (3,), velocity (3,), contacts (C,)).
 
     next_state: (S,) ground-truth state of the frame this step makes (posterior training) or None (prior);
     use_prior: None or () bool, True = z from the prior even with next_state (``Generator``).
 
-    probes: None, or this step's zero probes for the generator's kernels (see :func:`zero_probes`);
-    then the fourth output holds the inputs of its kernel matmuls (else None).
+    probes: None, or this step's zero probes for the generator's kernels (``scan_gradients.zero_probes``);
+    tape: None, or this step's taped values to replay, {tape collection: tree} (``stitchjax.tape``);
+    record: the collections to record, () or some of ("inputs", "tape", "output_tape"); then the fourth
+    output is {collection: tree} (else None).
     """
     data = config.data
     contacts, target_contacts = current["contacts"], target["contacts"]
@@ -116,12 +123,13 @@ def _step(params, phase_params, config, carry, current, target, distance, gamma,
     phase = _phase(config, phase_params, state)
     generator = networks.make_generator(config)
     args = (carry, state, target_state, offset, gamma, phase, eps, next_state, use_prior)
-    if probes is None:
-        carry, out = generator.apply(params, *args)
-        inputs = None
+    variables = {**params, **({} if probes is None else {"probes": probes}), **(tape or {})}
+    if record:
+        (carry, out), recorded = generator.apply(variables, *args, mutable=list(record))
+        recorded = {name: recorded.get(name, {}) for name in record}
     else:
-        (carry, out), recorded = generator.apply({**params, "probes": probes}, *args, mutable=["inputs"])
-        inputs = recorded["inputs"]
+        carry, out = generator.apply(variables, *args)
+        recorded = None
     update = out["rotation_update"].reshape(current["rotations"].shape)
     velocity = out["velocity"]
     frame = {
@@ -130,7 +138,7 @@ def _step(params, phase_params, config, carry, current, target, distance, gamma,
         "velocity": velocity,
         "contacts": jax.nn.sigmoid(out["contact_logits"]),
     }
-    return carry, frame, {k: out[k] for k in GAUSSIAN_KEYS}, inputs
+    return carry, frame, {k: out[k] for k in GAUSSIAN_KEYS}, recorded
 
 
 def _reverse(frame):
@@ -150,7 +158,8 @@ def _stack_first(first, rest):
     return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b], axis=0), first, rest)
 
 
-def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probes_i=None, truth_i=None):
+def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probes_i=None, truth_i=None,
+                  tape_i=None, record=()):
     """One bidirectional aligning step (paper Eq. 2), the body of the rollout's scan.
 
     f_{i+1} = G_fwd(f_i | target = latest backward frame), then b_{i+1} = G_bwd(b_i | target = f_{i+1})
@@ -161,14 +170,17 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
     carry: (forward LSTM carry, backward LSTM carry, latest forward frame, latest backward frame);
     i: () step index; eps_i: (2, latent) noise; plan: {"length", "n_forward", "n_backward", "start",
     "target"} (keyframes as frame dicts, :func:`keyframe_states`: the target in reversed time), optionally
-    "use_prior" (see :func:`rollout`); probes_i / truth_i: this step's probes and posterior inputs (forward,
-    backward) or None. Returns (carry, outputs) with "forward" / "backward" frame dicts plus their Gaussians,
-    and "inputs" (recorded matmul inputs, None unless probed).
+    "use_prior" (see :func:`rollout`); probes_i / truth_i / tape_i: this step's probes, posterior inputs
+    (forward, backward) and taped values or None; record: see :func:`_step`. Returns (carry, outputs) with
+    "forward" / "backward" frame dicts plus their Gaussians, and "records" ({generator: recorded trees},
+    empty unless recording).
     """
     m = config.model
     dtype = plan["start"]["rotations"].dtype
     length = plan["length"]
     probe = (lambda name: None) if probes_i is None else probes_i.get
+    def taped(name):  # this generator's part of each tape collection
+        return None if tape_i is None else {collection: t[name] for collection, t in tape_i.items() if name in t}
     truth_fwd, truth_bwd = (None, None) if truth_i is None else truth_i
     fwd_carry, bwd_carry, fwd, bwd = carry
     aligned = m.bidirectional and m.bidirectional_aligning
@@ -176,18 +188,19 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
         f_target, f_dist = _reverse(bwd), length + 1 - 2 * i
     else:
         f_target, f_dist = _reverse(plan["target"]), length + 1 - i
-    out = {"inputs": {}}
+    out = {"records": {}}
 
     def direction_step(name, carry_d, frame, target, distance, eps, truth):
         """One step of one generator; it holds its frame once it has made plan["n_<name>"] frames."""
         count = plan[f"n_{name}"]
         gamma = interpolation_weight(config, i + 1, count, length).astype(dtype)
-        new_carry, new_frame, gaussians, inputs = _step(gen_params[name], phase_params, config, carry_d, frame,
-                                                        target, distance, gamma, eps, probe(name), truth,
-                                                        plan.get("use_prior"))
+        new_carry, new_frame, gaussians, recorded = _step(gen_params[name], phase_params, config, carry_d, frame,
+                                                          target, distance, gamma, eps, probe(name), truth,
+                                                          plan.get("use_prior"), taped(name), record)
         carry_d, frame = _hold(i < count, (new_carry, new_frame), (carry_d, frame))
         out[name] = {**frame, **gaussians}
-        out["inputs"][name] = inputs
+        if recorded is not None:
+            out["records"][name] = recorded
         return carry_d, frame
 
     fwd_carry, fwd = direction_step("forward", fwd_carry, fwd, f_target, f_dist, eps_i[0], truth_fwd)
@@ -230,7 +243,7 @@ def stitch(fwd_all, bwd_all, length, h, k, num_frames: int, bidirectional: bool 
 
 def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int, noise=None,
             probes=None, ground_truth=None, noise_scale=1.0, noise_correlation=None, use_prior=None,
-            noise_ramp_steps: int = 0):
+            noise_ramp_steps: int = 0, tape=None):
     """Generate one transition.
 
     Args:
@@ -246,8 +259,14 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
       noise: optional (num_steps(config, max_length), 2, latent_dim) standard normal latent noise
         ([:, 0] forward, [:, 1] backward) used instead of drawing it from ``key`` (latent search).
       probes: optional {"forward", "backward"} zero probes with a leading (num_steps,) axis
-        (``scan_gradients.zero_probes``); then the result is (dict, inputs), inputs = the generators'
-        kernel-matmul inputs per step, {"forward", "backward"} trees of (num_steps, in) arrays.
+        (``scan_gradients.zero_probes``); then (without tape) the result is (dict, {"inputs": inputs}),
+        inputs = the generators' kernel-matmul inputs per step, {"forward", "backward"} trees of
+        (num_steps, in) arrays (or tuples of the input's parts, ``networks.kernel_matmul``).
+      tape: None; "record": the result is (dict, {"inputs": ..., "tape": ..., "output_tape": ...}), the
+        kernel-matmul inputs and the values the generator steps tape (``stitchjax.tape``), each distinct
+        array recorded once; or {"tape": ..., "output_tape": ...} as recorded, to replay
+        (``train.scan_remat="taped"``: the steps' nonlinearities and matmuls are not recomputed, and their
+        derivatives come from the taped values).
       ground_truth: optional {"forward", "backward"} (num_steps, S) ground-truth states of the frames each
         step makes (:func:`next_frame_states`): z is drawn from the posterior (model.posterior must not be
         "none"). None: z from the prior; the ground truth is never read.
@@ -287,9 +306,19 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     if use_prior is not None:
         plan["use_prior"] = jnp.asarray(use_prior, bool)
 
+    if isinstance(tape, str) and tape != "record":
+        raise ValueError(f"tape={tape!r}: use None, 'record' or a recorded tape")
+    record = (("inputs", tape_lib.TAPE, tape_lib.OUTPUT_TAPE) if tape == "record"
+              else ("inputs",) if probes is not None and tape is None else ())
+    replay = None if tape is None or isinstance(tape, str) else tape
+    layout = {}
+
     def body(carry, xs):
-        i, eps_i, probes_i, truth_i = xs
-        return aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probes_i, truth_i)
+        i, eps_i, probes_i, truth_i, tape_i = xs
+        carry, out = aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probes_i, truth_i,
+                                   tape_i, record)
+        out["records"] = _unique_leaves(out["records"], layout)
+        return carry, out
 
     policy = SCAN_REMAT[config.train.scan_remat]
     if policy is not None:
@@ -297,7 +326,7 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
 
     carry0 = networks.initial_carry(config, dtype)
     steps = jnp.arange(n, dtype=jnp.int32)
-    _, seq = jax.lax.scan(body, (carry0, carry0, start_frame, target_frame), (steps, eps, probes, truth))
+    _, seq = jax.lax.scan(body, (carry0, carry0, start_frame, target_frame), (steps, eps, probes, truth, replay))
 
     # Sequences including their keyframe at entry 0: fwd_all[t] = frame t, bwd_all[r] = frame L + 1 - r.
     fwd_all = _stack_first(start_frame, {key_: seq["forward"][key_] for key_ in _FRAME_KEYS})
@@ -308,19 +337,37 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     stitched = _pin_keyframes({"rotations": rot, "root_positions": root, "contacts": contacts}, start, target,
                               length, t_out)
     result = _with_positions(stitched, fwd_all, bwd_all, seq, offsets, config, length, (h, k, n_fwd, n_bwd))
-    if probes is not None:
-        return result, {name: inputs for name, inputs in seq["inputs"].items() if inputs is not None}
+    if record:
+        records = jax.tree.unflatten(layout["treedef"], [seq["records"][j] for j in layout["where"]])
+        return result, {collection: {name: by_collection[collection] for name, by_collection in records.items()}
+                        for collection in record}
     return result
+
+
+def _unique_leaves(tree, layout: dict) -> list:
+    """The distinct arrays of ``tree`` (by identity: one value recorded under several names, e.g. an
+    activation that is also the next matmul's input, is stacked by the scan once); ``layout`` gets the
+    treedef and each leaf's index in the returned list, to rebuild the tree after the scan."""
+    leaves, layout["treedef"] = jax.tree.flatten(tree)
+    index, unique = {}, []
+    for leaf in leaves:
+        if id(leaf) not in index:
+            index[id(leaf)] = len(unique)
+            unique.append(leaf)
+    layout["where"] = [index[id(leaf)] for leaf in leaves]
+    return unique
 
 
 _FRAME_KEYS = ("rotations", "root", "velocity", "contacts")
 
 
 # train.scan_remat -> the jax.checkpoint policy of the scan body (None: no checkpointing, save everything).
+# "taped" checkpoints nothing either: the scan it differentiates replays a recorded tape (rollout_batch).
 SCAN_REMAT = {
     "none": None,
     "dots": jax.checkpoint_policies.dots_saveable,
     "nothing": jax.checkpoint_policies.nothing_saveable,
+    "taped": None,
 }
 
 
@@ -542,25 +589,34 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
         elif config.loss.prior_sample_fraction != 0:  # prior_sample_flags refuses values outside [0, 1]
             use_prior = prior_sample_flags(key, keys.shape[0], config.loss.prior_sample_fraction)
 
-    def run(generators, inputs, constants, probes):
+    def run(generators, inputs, constants, probes=None, tape=None):
         phase_params, start, target, offsets, truth = inputs
         keys, length, use_prior = constants
+        record = tape == "record" if isinstance(tape, str) else False
 
-        def one(s, t, o, k, g, p, u):
+        def one(s, t, o, k, g, u, p, taped):
             return rollout(generators, phase_params, s, t, o, k, config, length, max_length, probes=p,
-                           ground_truth=g, use_prior=u)
+                           ground_truth=g, use_prior=u, tape="record" if record else taped)
 
-        if probes is None:
-            return jax.vmap(one)(start, target, offsets, keys, truth, None, use_prior)
-        # Probes in and recorded matmul inputs out stay step-major (steps, B, ...), the layout the batched
-        # scan keeps them in, so the after-scan kernel gradients read both without a transposing copy.
-        return jax.vmap(one, in_axes=(0, 0, 0, 0, 0, 1, 0), out_axes=(0, 1))(start, target, offsets, keys,
-                                                                             truth, probes, use_prior)
+        # Probes and taped values in, recorded values out stay step-major (steps, B, ...), the layout the
+        # batched scan keeps them in, so the scan and the after-scan kernel gradients read them without a
+        # transposing copy.
+        recording = record or (probes is not None and tape is None)
+        return jax.vmap(one, in_axes=(0, 0, 0, 0, 0, 0, 1, 1), out_axes=(0, 1) if recording else 0)(
+            start, target, offsets, keys, truth, use_prior, probes, None if record else tape)
 
     inputs, constants = (phase_params, start, target, offsets, truth), (keys, length, use_prior)
+    taped = config.train.scan_remat == "taped"
+    if taped and not config.train.weight_gradients_after_scan:
+        raise ValueError("train.scan_remat=taped needs train.weight_gradients_after_scan=true (the tape is "
+                         "recorded by the after-scan gradients' forward pass)")
+    if taped and config.model.activation not in tape_lib.DERIVATIVES:
+        raise ValueError(f"train.scan_remat=taped cannot tape model.activation={config.model.activation!r}: use "
+                         f"one of {', '.join(a for a in tape_lib.DERIVATIVES if a in _ACTIVATION_NAMES)}, "
+                         "or another train.scan_remat")
     if config.train.weight_gradients_after_scan:
         leading = (num_steps(config, max_length), keys.shape[0])
-        run_probed = scan_gradients.gradients_after_scan(run, leading, config.model.matmul_dtype)
+        run_probed = scan_gradients.gradients_after_scan(run, leading, config.model.matmul_dtype, taped)
         out = run_probed(generators, inputs, constants)
     else:
         out = run(generators, inputs, constants, None)

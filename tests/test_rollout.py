@@ -174,6 +174,62 @@ def test_weight_gradients_after_scan_equal_per_step_gradients(setup, extra):
         assert not any(np.any(np.asarray(g)) for g in jax.tree.leaves(grads_b[0]["backward"]))
 
 
+@pytest.mark.parametrize("extra", [(), ("model.bidirectional=false", "model.phase_modulation=false"),
+                                   ("model.posterior=none", "model.matmul_dtype=bfloat16")])
+def test_taped_scan_gives_the_gradients_of_plain_autodiff(extra):
+    """train.scan_remat=taped (record, then replay the tape) changes what the scan stacks, never the loss or
+    any gradient (parameters, phase network, batch), against autodiff without after-scan kernel gradients."""
+    from stitchjax import losses
+
+    batch = synthetic_batch()
+
+    def gradients(*flags):
+        config = tiny_config(*extra, *flags)
+        params = N.init_params(config, jax.random.PRNGKey(0))
+        generators = {k: params[k] for k in ("forward", "backward")}
+
+        def loss(gen, pp, b):
+            return losses.generator_loss({**params, **gen}, pp, b, jax.random.PRNGKey(3), config, 7)[0]
+
+        return jax.jit(jax.value_and_grad(loss, argnums=(0, 1, 2)))(generators, phase_params_for(config), batch)
+
+    (loss_a, grads_a), (loss_b, grads_b) = (gradients("train.weight_gradients_after_scan=false"),
+                                            gradients("train.scan_remat=taped"))
+    np.testing.assert_allclose(loss_b, loss_a, rtol=1e-6)
+    assert np.any(np.asarray(grads_b[0]["forward"]["params"]["lstm"]["hidden_kernel"]) != 0)
+    atol = 1e-3 if "model.matmul_dtype=bfloat16" in extra else 2e-5
+    for a, b in zip(jax.tree.leaves(grads_a), jax.tree.leaves(grads_b)):
+        scale = max(float(np.max(np.abs(a))), 1e-6)
+        np.testing.assert_allclose(np.asarray(b) / scale, np.asarray(a) / scale, atol=atol)
+
+
+def test_taped_scan_refuses_an_activation_it_cannot_tape():
+    config = tiny_config("train.scan_remat=taped", "model.activation=gelu")
+    params = N.init_params(config, jax.random.PRNGKey(0))
+    with pytest.raises(ValueError, match="scan_remat=taped cannot tape model.activation='gelu'"):
+        RO.rollout_batch(params, phase_params_for(config), synthetic_batch(), jax.random.PRNGKey(1), config, 7)
+
+
+def test_recorded_values_are_stacked_once():
+    """Recording, an activation that is also the next layer's matmul input comes out of the scan as one
+    array, and the LSTM input's parts are the encoders' taped outputs themselves."""
+    config = tiny_config()
+    params = N.init_params(config, jax.random.PRNGKey(0))
+    batch = synthetic_batch()
+    start, target, offsets = RO.keyframes_from_batch(batch, 7)
+    one = jax.tree.map(lambda x: x[0], (start, target, offsets))
+    _, records = RO.rollout(params, phase_params_for(config), *one, jax.random.PRNGKey(1), config, 7, 10,
+                            tape="record")
+    forward_inputs, forward_outputs = records["inputs"]["forward"], records["output_tape"]["forward"]
+    assert forward_inputs["state_encoder"]["dense_1"]["kernel"] is forward_outputs["state_encoder"]["dense_0"]["output"]
+    parts = forward_inputs["lstm"]["input_kernel"]
+    assert isinstance(parts, tuple) and len(parts) == 3
+    assert parts[1] is forward_outputs["offset_encoder"]["dense_2"]["output"]
+    n = RO.num_steps(config, 10)
+    assert parts[0].shape == (n, config.model.encoder_widths[-1])
+    assert set(records["tape"]["forward"]["lstm"]) == {"cell_tanh"}
+
+
 @pytest.mark.parametrize("policy", ["dots", "nothing"])
 def test_scan_remat_keeps_the_loss_and_gradients(setup, policy):
     """train.scan_remat changes only what the scan saves for the backward pass, never the gradients."""
