@@ -2,7 +2,7 @@
 
     python benchmarks/step_parts.py                              # lafan1, batch 32, length 48, both precisions
     python benchmarks/step_parts.py --batch 128 --dtypes float32
-    python benchmarks/step_parts.py --dtypes float32 --scan-remat none,dots --profile /tmp/trace   # train.scan_remat
+    python benchmarks/step_parts.py --dtypes float32 --scan-remat none,taped --profile /tmp/trace   # train.scan_remat
 
 Parts (each one jitted program, compiled ahead of time, timed after two warm-up calls; medians):
 
@@ -124,7 +124,7 @@ def main(argv=None) -> int:
     parser.add_argument("--dtypes", default="float32,bfloat16", help="model.matmul_dtype values to time")
     parser.add_argument("--reps", type=int, default=5, help="timed calls per part (default 5)")
     parser.add_argument("--scan-remat", default="none",
-                        help="train.scan_remat values to time, comma separated (none, dots, nothing)")
+                        help="train.scan_remat values to time, comma separated (none, dots, nothing, taped)")
     parser.add_argument("--profile", type=pathlib.Path, default=None, metavar="DIR",
                         help="also trace the generator loss + grad into DIR/<dtype>_<scan_remat> and print its top "
                              "operations")

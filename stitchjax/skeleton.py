@@ -120,8 +120,8 @@ def forward_kinematics(local_rotations, local_positions, parents):
       parents: static tuple (J,) of parent indices, -1 for the root.
     Returns:
       (global_rotations (..., J, 4), global_positions (..., J, 3)).
-    Joints sharing a depth are computed together: with JAX inputs as one ``lax.scan`` step per tree
-    level (fast to compile, differentiable), with NumPy inputs joint by joint into preallocated arrays.
+    Joints sharing a depth are computed together: with JAX inputs one block per tree level (no loop,
+    differentiable), with NumPy inputs joint by joint into preallocated arrays.
     """
     parents = tuple(parents)
     xp = R._xp(local_rotations, local_positions)
@@ -148,40 +148,42 @@ class GlobalTransforms:
 
 
 @lru_cache(maxsize=None)
-def _level_indices(parents: tuple):
-    """(levels, width) int arrays: each depth's joints and their parents, padded by repeating the last."""
-    levels = _levels(parents)
-    width = max((len(joints) for joints, _ in levels), default=1)
-    joints = [list(j) + [j[-1]] * (width - len(j)) for j, _ in levels]
-    pars = [list(p) + [p[-1]] * (width - len(p)) for _, p in levels]
-    return np.asarray(joints, np.int32).reshape(-1, width), np.asarray(pars, np.int32).reshape(-1, width)
+def _level_plan(parents: tuple):
+    """FK by depth: (roots, ((joints, parent slots in the previous depth's list), ...), order), with order
+    the position of each joint in the concatenation of all depths' lists."""
+    roots = tuple(j for j, p in enumerate(parents) if p < 0)
+    slot = {j: k for k, j in enumerate(roots)}
+    plan, listed = [], list(roots)
+    for joints, pars in _levels(parents):
+        plan.append((np.asarray(joints, np.int32), np.asarray([slot[p] for p in pars], np.int32)))
+        slot = {j: k for k, j in enumerate(joints)}
+        listed += joints
+    order = np.argsort(np.asarray(listed)).astype(np.int32)
+    return np.asarray(roots, np.int32), tuple(plan), order
 
 
 def _forward_kinematics_jax(local_rotations, local_positions, parents):
-    """JAX FK as a ``lax.scan`` over tree depths: each step gathers one depth's parents and writes that
-    depth's joints. The traced program is one small loop body, so it compiles in about a second where
-    a joint-by-joint unrolled version takes tens of seconds under ``grad`` inside a train step."""
-    import jax
+    """JAX FK one tree depth at a time: each depth gathers its parents from the depth above and is kept as
+    its own array; the joints are put back in order by one gather at the end. No loop and no in-place
+    writes (a ``lax.scan`` over depths writing into the joint arrays cost loop-buffer copies in the train
+    step, benchmarks/README.md), and the traced program stays one small block per depth."""
     import jax.numpy as jnp
 
-    joints, pars = _level_indices(parents)
     batch = jnp.broadcast_shapes(local_rotations.shape[:-1], local_positions.shape[:-1])
     local_rotations = jnp.broadcast_to(local_rotations, batch + (4,))
     local_positions = jnp.broadcast_to(local_positions, batch + (3,))
-    if joints.shape[0] == 0:
+    roots, plan, order = _level_plan(parents)
+    rotations = [jnp.take(local_rotations, roots, axis=-2)]
+    positions = [jnp.take(local_positions, roots, axis=-2)]
+    for joints, slots in plan:
+        parent_rotation = jnp.take(rotations[-1], slots, axis=-2)
+        rotations.append(R.quat_mul(parent_rotation, jnp.take(local_rotations, joints, axis=-2)))
+        positions.append(R.quat_rotate(parent_rotation, jnp.take(local_positions, joints, axis=-2))
+                         + jnp.take(positions[-1], slots, axis=-2))
+    if not plan:
         return local_rotations, local_positions
-
-    def body(carry, idx):
-        grot, gpos = carry
-        j, p = idx
-        prot = jnp.take(grot, p, axis=-2)
-        rot = R.quat_mul(prot, jnp.take(local_rotations, j, axis=-2))
-        pos = R.quat_rotate(prot, jnp.take(local_positions, j, axis=-2)) + jnp.take(gpos, p, axis=-2)
-        return (grot.at[..., j, :].set(rot), gpos.at[..., j, :].set(pos)), None
-
-    (grot, gpos), _ = jax.lax.scan(body, (local_rotations, local_positions),
-                                   (jnp.asarray(joints), jnp.asarray(pars)))
-    return grot, gpos
+    return (jnp.take(jnp.concatenate(rotations, axis=-2), order, axis=-2),
+            jnp.take(jnp.concatenate(positions, axis=-2), order, axis=-2))
 
 
 def _forward_kinematics_numpy(local_rotations, local_positions, parents):
