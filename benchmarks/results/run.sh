@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The commands that wrote benchmarks/results (from the repository root); figures in benchmarks/README.md.
-# Usage: bash benchmarks/results/run.sh full|quick|quick_idle|quick_zen3|copies|quick_taped
+# Usage: bash benchmarks/results/run.sh full|quick|quick_idle|quick_zen3|copies|quick_taped|full_taped
 set -euo pipefail
 OUT=benchmarks/results
 case "${1:-}" in
@@ -30,6 +30,10 @@ case "${1:-}" in
   quick_taped)  # --quick with stitchjax's train step taped, then with the default, one after the other
     time python benchmarks/run_all.py --quick --scan-remat taped --json "$OUT/run_all_quick_taped.json"
     time python benchmarks/run_all.py --quick --json "$OUT/run_all_quick_none.json"
+    ;;
+  full_taped)  # all repetitions of train and infer on the idle machine, stitchjax's train step taped
+    time python benchmarks/run_all.py --only train,infer --torch-threads faster --scan-remat taped \
+      --json "$OUT/run_all_train_infer_taped.json"
     ;;
   quick_zen3)  # the same on the idle Zen 3 machine (no bfloat16 units): once with cold caches, then timed warm
     python benchmarks/run_all.py --quick --json /tmp/run_all_quick_cold.json
