@@ -179,8 +179,8 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
     dtype = plan["start"]["rotations"].dtype
     length = plan["length"]
     probe = (lambda name: None) if probes_i is None else probes_i.get
-    def taped(name):  # this generator's part of each tape collection
-        return None if tape_i is None else {collection: t[name] for collection, t in tape_i.items() if name in t}
+    taped = ((lambda name: None) if tape_i is None  # this generator's part of each tape collection
+             else (lambda name: {collection: t[name] for collection, t in tape_i.items() if name in t}))
     truth_fwd, truth_bwd = (None, None) if truth_i is None else truth_i
     fwd_carry, bwd_carry, fwd, bwd = carry
     aligned = m.bidirectional and m.bidirectional_aligning
