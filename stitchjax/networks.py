@@ -142,7 +142,7 @@ def kernel_matmul(module: nn.Module, x, kernel, name: str, dtype: str = "float32
     (``stitchjax.tape``) the kernel is held constant too: its output tape's cotangent is the output gradient.
     The caller recovers the kernel gradient as x^T (output gradient) from the recorded inputs.
     """
-    parts = tuple(x) if isinstance(x, (tuple, list)) else (x,)
+    parts = _parts(x)
     x = parts[0] if len(parts) == 1 else jnp.concatenate(parts, axis=-1)
     flat = kernel.reshape(kernel.shape[0], -1)
     if module.is_mutable_collection("inputs") and not module.is_initializing():
@@ -156,10 +156,14 @@ def kernel_matmul(module: nn.Module, x, kernel, name: str, dtype: str = "float32
     return y if probe != name else y + module.get_variable("probes", name)
 
 
+def _parts(x) -> tuple:
+    """A matmul input as the tuple of its parts (:func:`kernel_matmul`): x itself, or the parts given."""
+    return tuple(x) if isinstance(x, (tuple, list)) else (x,)
+
+
 def input_size(x) -> int:
     """Last-axis size of a matmul input or of the concatenation of its parts (:func:`kernel_matmul`)."""
-    parts = tuple(x) if isinstance(x, (tuple, list)) else (x,)
-    return sum(part.shape[-1] for part in parts)
+    return sum(part.shape[-1] for part in _parts(x))
 
 
 class Dense(nn.Module):
@@ -260,7 +264,8 @@ class MoEDense(nn.Module):
         bias = self.param("bias", nn.initializers.zeros, (self.num_experts, self.features))
         flat = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype)
         expert_outputs = flat.reshape(flat.shape[:-1] + (self.num_experts, self.features)) + bias
-        expert_outputs = tape.tape_point(self, "output", "identity", expert_outputs, lambda v: v, True)
+        expert_outputs = tape.tape_point(self, "output", "identity", expert_outputs, _LAYER_FUNCTIONS["identity"],
+                                         True)
         return jnp.einsum("...e,...eo->...o", coefficients, expert_outputs)
 
 

@@ -306,10 +306,7 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     if use_prior is not None:
         plan["use_prior"] = jnp.asarray(use_prior, bool)
 
-    if isinstance(tape, str) and tape != "record":
-        raise ValueError(f"tape={tape!r}: use None, 'record' or a recorded tape")
-    record = (("inputs", tape_lib.TAPE, tape_lib.OUTPUT_TAPE) if tape == "record"
-              else ("inputs",) if probes is not None and tape is None else ())
+    record = _recorded_collections(probes, tape)
     replay = None if tape is None or isinstance(tape, str) else tape
     layout = {}
 
@@ -342,6 +339,16 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         return result, {collection: {name: by_collection[collection] for name, by_collection in records.items()}
                         for collection in record}
     return result
+
+
+def _recorded_collections(probes, tape) -> tuple:
+    """The variable collections a rollout records (see :func:`rollout`'s ``probes`` and ``tape``): () when
+    it returns its result alone."""
+    if isinstance(tape, str) and tape != "record":
+        raise ValueError(f"tape={tape!r}: use None, 'record' or a recorded tape")
+    if tape == "record":
+        return ("inputs", tape_lib.TAPE, tape_lib.OUTPUT_TAPE)
+    return ("inputs",) if probes is not None and tape is None else ()
 
 
 def _unique_leaves(tree, layout: dict) -> list:
@@ -592,7 +599,7 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
     def run(generators, inputs, constants, probes=None, tape=None):
         phase_params, start, target, offsets, truth = inputs
         keys, length, use_prior = constants
-        record = tape == "record" if isinstance(tape, str) else False
+        record = isinstance(tape, str)  # "record" (_recorded_collections refuses any other string)
 
         def one(s, t, o, k, g, u, p, taped):
             return rollout(generators, phase_params, s, t, o, k, config, length, max_length, probes=p,
@@ -601,7 +608,7 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
         # Probes and taped values in, recorded values out stay step-major (steps, B, ...), the layout the
         # batched scan keeps them in, so the scan and the after-scan kernel gradients read them without a
         # transposing copy.
-        recording = record or (probes is not None and tape is None)
+        recording = bool(_recorded_collections(probes, tape))
         return jax.vmap(one, in_axes=(0, 0, 0, 0, 0, 0, 1, 1), out_axes=(0, 1) if recording else 0)(
             start, target, offsets, keys, truth, use_prior, probes, None if record else tape)
 

@@ -173,6 +173,8 @@ def _forward_kinematics_jax(local_rotations, local_positions, parents):
     local_rotations = jnp.broadcast_to(local_rotations, batch + (4,))
     local_positions = jnp.broadcast_to(local_positions, batch + (3,))
     roots, plan, order = _level_plan(parents)
+    if not plan:  # every joint a root: local is global
+        return local_rotations, local_positions
     rotations = [jnp.take(local_rotations, roots, axis=-2)]
     positions = [jnp.take(local_positions, roots, axis=-2)]
     for joints, slots in plan:
@@ -180,8 +182,6 @@ def _forward_kinematics_jax(local_rotations, local_positions, parents):
         rotations.append(R.quat_mul(parent_rotation, jnp.take(local_rotations, joints, axis=-2)))
         positions.append(R.quat_rotate(parent_rotation, jnp.take(local_positions, joints, axis=-2))
                          + jnp.take(positions[-1], slots, axis=-2))
-    if not plan:
-        return local_rotations, local_positions
     return (jnp.take(jnp.concatenate(rotations, axis=-2), order, axis=-2),
             jnp.take(jnp.concatenate(positions, axis=-2), order, axis=-2))
 
