@@ -4,7 +4,7 @@ import sys
 
 import numpy as np
 
-SCRIPT = pathlib.Path(__file__).resolve().parent.parent / "results" / "foot_motion.py"
+SCRIPT = pathlib.Path(__file__).resolve().parent.parent / "foot_motion.py"
 sys.path.insert(0, str(SCRIPT.parent))
 import foot_motion  # noqa: E402
 

@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-SCRIPT = pathlib.Path(__file__).resolve().parent.parent / "results" / "time_to_quality.py"
+SCRIPT = pathlib.Path(__file__).resolve().parent.parent / "time_to_quality.py"
 sys.path.insert(0, str(SCRIPT.parent))
 import time_to_quality  # noqa: E402
 

@@ -9,7 +9,7 @@ import pytest
 
 from stitchjax import bvh, sample
 
-REPO = pathlib.Path(__file__).resolve().parent.parent
+REPO = pathlib.Path(__file__).resolve().parent.parent.parent
 SCRIPT = REPO / "results" / "placed_target.py"
 sys.path.insert(0, str(SCRIPT.parent))
 import placed_target  # noqa: E402

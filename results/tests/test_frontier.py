@@ -5,7 +5,7 @@ import sys
 
 import pytest
 
-SCRIPT = pathlib.Path(__file__).resolve().parent.parent / "results" / "frontier.py"
+SCRIPT = pathlib.Path(__file__).resolve().parent.parent / "frontier.py"
 sys.path.insert(0, str(SCRIPT.parent))
 import frontier  # noqa: E402
 
