@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 from stitchjax import evaluate, lafan1, metrics, plots, trained_model  # noqa: E402
 from stitchjax.skeleton import forward_kinematics  # noqa: E402
 
-START = 9  # the protocol's start keyframe (DESIGN.md §6)
+START = 9  # the protocol's start keyframe (docs/design.md §6)
 
 
 def window_figures(model, windows, index: int, length: int, samples: int, seed: int, out: pathlib.Path,

@@ -1,4 +1,4 @@
-"""Naive in-betweening baselines of the LAFAN1 benchmark (DESIGN.md §4), float64 numpy.
+"""Naive in-betweening baselines of the LAFAN1 benchmark (docs/design.md §4), float64 numpy.
 
 Both take the start keyframe and (for interpolation) the target keyframe as local poses and return
 the ``length`` in-between frames, as local rotations (..., L, J, 4) and local positions (..., L, J, 3).

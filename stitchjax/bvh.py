@@ -8,7 +8,7 @@ a MOTION block with one line of channel values per frame. :func:`load` turns it 
 :class:`Motion` of local quaternions and local positions; :func:`save` writes one back with the same
 hierarchy and channel layout.
 
-Conventions (DESIGN.md §3-4): quaternions are (w, x, y, z), Hamilton; a joint's rotation channels in
+Conventions (docs/design.md §3-4): quaternions are (w, x, y, z), Hamilton; a joint's rotation channels in
 file order ``Zrotation Yrotation Xrotation`` (order ``"zyx"``, degrees in the file) give
 ``q = q_z * q_y * q_x``. A joint with position channels has an animated local position (the channel
 values, which replace its OFFSET); every other joint's local position is its OFFSET. Positions stay

@@ -18,7 +18,7 @@ What the config (``config.data``) declares, each with a default inferred from co
   first training file's (the training skeleton), so a file in other units is refused by name.
 
 On load, every take is rescaled to centimetres, turned so its up axis is +Y and resampled to ``fps``;
-windows, contacts (on the declared feet) and statistics then follow the LAFAN1 recipe (DESIGN.md §4)
+windows, contacts (on the declared feet) and statistics then follow the LAFAN1 recipe (docs/design.md §4)
 with the declared forward axis. Cached like the LAFAN1 windows.
 """
 from __future__ import annotations

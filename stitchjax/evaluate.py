@@ -1,4 +1,4 @@
-"""Evaluation: the official LAFAN1 baseline benchmark and the paper's protocol (DESIGN.md §4, §6).
+"""Evaluation: the official LAFAN1 baseline benchmark and the paper's protocol (docs/design.md §4, §6).
 
 Two entry points, both float64 numpy:
 
@@ -361,7 +361,7 @@ def evaluate_protocol(
     progress: bool = True,
     settings: Mapping[str, str] | None = None,
 ) -> dict:
-    """The paper's evaluation protocol (DESIGN.md §6) for several methods through one code path.
+    """The paper's evaluation protocol (docs/design.md §6) for several methods through one code path.
 
     methods: name -> ``Method`` (e.g. {"model": ..., **BASELINE_METHODS}).
     windows: test windows (N, T, J, ...), centred and facing-aligned; stats: anything with

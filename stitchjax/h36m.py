@@ -220,7 +220,7 @@ def load_windows(data_dir, subjects=TRAIN_SUBJECTS, window: int = 50, offset: in
 
 def test_windows(data_dir, window: int = 65, offset: int = 40, cache_dir=None) -> Windows:
     """Evaluation windows of the test subjects S9 and S11 (65/40, the LAFAN1 protocol of
-    DESIGN.md §6 applied to Human3.6M)."""
+    docs/design.md §6 applied to Human3.6M)."""
     return load_windows(data_dir, TEST_SUBJECTS, window, offset, cache_dir)
 
 

@@ -1,7 +1,7 @@
 """LAFAN1: file listing, training / test windows and normalisation statistics (float64).
 
 Reproduces the official benchmark's data preparation (ubisoft-laforge-animation-dataset,
-``lafan1/extract.py``; DESIGN.md §4): for every file of the chosen subjects, windows of ``window``
+``lafan1/extract.py``; docs/design.md §4): for every file of the chosen subjects, windows of ``window``
 frames every ``offset`` frames over the file's whole frame range (``start + window < T``), contacts
 on the raw windows, then centring and facing alignment at frame 9. Training: subjects 1-4, 50/20.
 Benchmark test set: subject5, 65/40 (2232 windows on the full release).

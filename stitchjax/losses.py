@@ -75,7 +75,8 @@ def state_loss(pred, true, mask, loss_config):
 
 
 def kl_loss(mu, logvar, mask, reduction: str = "sum"):
-    """KL(N(mu, exp(logvar)) || N(0, I)) per frame (sum or mean over latent dims), mean over valid frames."""
+    """Paper Eq. 5: KL(N(mu, exp(logvar)) || N(0, I)) per frame (sum or mean over latent dims), mean over valid
+    frames. The objective's KL term with ``model.posterior="none"`` (on the blended prior, docs/design.md §5.5)."""
     kl = 0.5 * (jnp.square(mu) + jnp.exp(logvar) - 1.0 - logvar)
     per_frame = jnp.sum(kl, axis=-1) if reduction == "sum" else jnp.mean(kl, axis=-1)
     return masked_mean(per_frame, mask)

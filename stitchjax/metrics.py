@@ -1,6 +1,6 @@
 """Evaluation metrics for motion in-betweening (float64 numpy).
 
-Two families (DESIGN.md §4 and §6):
+Two families (docs/design.md §4 and §6):
 
 * the official LAFAN1 benchmark metrics ``l2q``, ``l2p`` and ``npss``, reproduced exactly
   (same normalisation, same axes, same weighting as the reference implementation);

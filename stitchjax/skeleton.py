@@ -13,7 +13,7 @@ import numpy as np
 
 from stitchjax import rotations as R
 
-# LAFAN1 skeleton (DESIGN.md §4): 22 joints, Y-up, centimetres, 30 fps.
+# LAFAN1 skeleton (docs/design.md §4): 22 joints, Y-up, centimetres, 30 fps.
 LAFAN1_JOINTS = (
     "Hips", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToe", "RightUpLeg", "RightLeg", "RightFoot",
     "RightToe", "Spine", "Spine1", "Spine2", "Neck", "Head", "LeftShoulder", "LeftArm", "LeftForeArm",

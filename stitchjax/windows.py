@@ -1,7 +1,7 @@
 """Fixed-length motion windows: slicing, foot contacts, centring + facing alignment, time reversal;
 the windows of a clip and the statistics of a set of clips, for every dataset.
 
-The facts reproduced here are those of the official LAFAN1 benchmark code (DESIGN.md §4):
+The facts reproduced here are those of the official LAFAN1 benchmark code (docs/design.md §4):
 
 - window starts ``0, offset, 2*offset, ...`` while ``start + window < T`` (strict: a window never
   ends on the file's last frame);
@@ -41,7 +41,7 @@ __all__ = [
 ]
 
 CONTACT_THRESHOLD = 0.02  # squared displacement per frame, file units² (cm² for LAFAN1)
-FOOT_HEIGHT_THRESHOLD_CM = 2.5  # H of the foot-slide weight clip(2 - 2^(h/H), 0, 1) (DESIGN.md §6); windows are in cm
+FOOT_HEIGHT_THRESHOLD_CM = 2.5  # H of the foot-slide weight clip(2 - 2^(h/H), 0, 1) (docs/design.md §6), cm
 FACING_FRAME = 9  # the last of the 10 context frames of the LAFAN1 benchmark
 
 

@@ -1,4 +1,4 @@
-"""Zero-velocity and interpolation baselines (DESIGN.md §4)."""
+"""Zero-velocity and interpolation baselines (docs/design.md §4)."""
 import numpy as np
 import pytest
 
