@@ -101,20 +101,27 @@ def save(manager: ocp.CheckpointManager, step: int, state: Any, config: Any, ext
     )
 
 
-def restore(manager: ocp.CheckpointManager, abstract_state: Any, step: int | None = None):
+def restore(manager: ocp.CheckpointManager, abstract_state: Any, step: int | None = None, partial: bool = False):
     """Restore checkpoint `step` (default: the latest) onto `abstract_state`.
 
     abstract_state: a pytree of jax.ShapeDtypeStruct (with .sharding) like `jax.eval_shape(init)`.
+    partial: `abstract_state` is a dict holding some of the saved state's fields (e.g. {"params": {"forward":
+    ..., "backward": ...}}); only those arrays are read (the rest, optimiser states included, stay on disk).
     Returns (state, config_json: dict, extras: dict).
     """
     if step is None:
         step = manager.latest_step()
     if step is None:
         raise CheckpointError(f"no checkpoint found in {manager.directory}")
+    if partial:
+        state_args = ocp.args.PyTreeRestore(item=abstract_state, partial_restore=True,
+                                            restore_args=ocp.checkpoint_utils.construct_restore_args(abstract_state))
+    else:
+        state_args = ocp.args.StandardRestore(abstract_state)
     restored = manager.restore(
         int(step),
         args=ocp.args.Composite(
-            state=ocp.args.StandardRestore(abstract_state),
+            state=state_args,
             config=ocp.args.JsonRestore(),
             extras=ocp.args.JsonRestore(),
         ),
@@ -192,11 +199,12 @@ def _silence_pending_read_errors() -> None:
 
 def restore_newest_good(manager: ocp.CheckpointManager, abstract_state: Any,
                         report: Callable[[str], None] | None = _report_to_stderr,
-                        steps: list[int] | None = None):
+                        steps: list[int] | None = None, partial: bool = False):
     """Restore the newest checkpoint that restores, falling back over broken ones (newest first).
 
     Each step folder that fails (a truncated or missing file, ...) is named through `report` with the
     first line of its error, and the next older one is tried. steps: candidates (default: all saved).
+    partial: restore only the fields of `abstract_state` (see :func:`restore`).
     Returns (state, config_json, extras, step). Raises CheckpointError naming every folder tried when
     none restores (or there is none).
     """
@@ -208,7 +216,7 @@ def restore_newest_good(manager: ocp.CheckpointManager, abstract_state: Any,
     failures = []
     for i, step in enumerate(steps):
         try:
-            state, config_json, extras = restore(manager, abstract_state, step)
+            state, config_json, extras = restore(manager, abstract_state, step, partial)
         except Exception as error:  # orbax / TensorStore raise many types for a broken folder
             _silence_pending_read_errors()
             failures.append(f"{directory / str(step)}: {_short(error)}")

@@ -1,17 +1,23 @@
 """A trained in-betweening model ready for inference: loaded from a training run, or freshly initialised.
 
+    model = pretrained()                              # the release model shipped in stitchjax/models/
     model = load_model("runs/quickstart")            # a training run (or a checkpoint folder)
+    model = load_model("stitchjax/models/lafan1_cpu_mixed")   # an exported model folder (bin/export)
     model = random_model(config_lib.load_config("tiny"), seed=0)   # untrained: timing, tests, shapes
     fast = with_matmul_dtype(model, "bfloat16")      # same parameters, bfloat16 matmul operands
 
 A :class:`Model` carries the config, the generators' (and phase network's) parameters, the training
 statistics and the skeleton facts saved in the checkpoint (joint names, feet, up and forward axes, units).
+Loading restores only what sampling needs: never the discriminators, the optimiser states or a train state.
+An exported model folder (:func:`export_model`, ``bin/export``) holds just that: ``model.json`` (config, stats,
+skeleton facts) and ``params.msgpack`` (the generators' and phase network's parameters, stored in float16).
 :class:`InbetweenError` is the error of every request a model cannot serve, here and in
 ``stitchjax.inbetween`` / ``takes`` / ``latent`` / ``evaluate`` (``inbetween.InbetweenError`` is this class).
 """
 from __future__ import annotations
 
 import dataclasses
+import json
 import logging
 import os
 import pathlib
@@ -20,11 +26,19 @@ from typing import Any, Sequence
 import jax
 import numpy as np
 
-from stitchjax import checkpoints, conform, datasets, features, networks, phase, train
+from stitchjax import checkpoints, conform, datasets, features, networks, parallel, phase
 from stitchjax import config as config_lib
 from stitchjax.skeleton import LAFAN1_FEET
 
-__all__ = ["InbetweenError", "Model", "load_model", "model_from_state", "random_model", "with_matmul_dtype"]
+__all__ = ["InbetweenError", "Model", "RELEASE_MODEL", "export_model", "load_model", "model_from_state",
+           "pretrained", "random_model", "with_matmul_dtype"]
+
+MODELS_DIR = pathlib.Path(__file__).resolve().parent / "models"  # exported models shipped with the package
+RELEASE_MODEL = "lafan1_cpu_mixed"  # the folder of MODELS_DIR that pretrained() loads
+MODEL_JSON, PARAMS_FILE = "model.json", "params.msgpack"  # an exported model folder's two files
+FORMAT = "stitchjax-model"
+FORMAT_VERSION = 1
+STORED_DTYPES = ("float32", "float16", "bfloat16")
 
 
 class InbetweenError(ValueError):
@@ -142,13 +156,33 @@ def _readable_config(workdir, step):
     return checkpoints.read_config_json(workdir, steps[0] if steps else None)
 
 
-def load_model(checkpoint, step: int | None = None) -> Model:
-    """Load a model from a training run folder (its latest checkpoint, or ``step``).
+def _sampling_abstract(config) -> dict:
+    """Shapes (replicated) of what sampling restores from a train state: {"params": {"forward", "backward"}}
+    and, with phase modulation, {"phase_params": ...}; no discriminator, no optimiser state."""
+    key = jax.random.PRNGKey(0)
+    generators = jax.eval_shape(lambda k: networks.init_params(config, k), key)
+    wanted = {"params": {"forward": generators["forward"], "backward": generators["backward"]}}
+    if config.model.phase_modulation:
+        wanted["phase_params"] = jax.eval_shape(
+            lambda k: phase.init_phase_params(k, features.state_dim(config), config), key)
+    sharding = parallel.replicated(parallel.make_mesh())
+    return jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), wanted)
 
-    ``checkpoint`` may be the run folder (``bin/train --workdir``), its ``checkpoints/`` folder or one
-    ``checkpoints/<step>`` folder. The config saved beside the state says how to build the networks.
+
+def load_model(checkpoint, step: int | None = None) -> Model:
+    """Load a model from a training run folder (its latest checkpoint, or ``step``) or an exported folder.
+
+    ``checkpoint`` may be the run folder (``bin/train --workdir``), its ``checkpoints/`` folder, one
+    ``checkpoints/<step>`` folder, or a folder written by :func:`export_model` (``bin/export``; ``step`` must
+    then be None). The config saved beside the parameters says how to build the networks. Only the generators'
+    (and phase network's) parameters are read: the discriminators and optimiser states stay on disk.
     Raises FileNotFoundError (``checkpoints.CheckpointError``) when there is no checkpoint.
     """
+    folder = pathlib.Path(os.fspath(checkpoint)).expanduser()
+    if (folder / MODEL_JSON).is_file():
+        if step is not None:
+            raise InbetweenError(f"{folder} is an exported model (one set of parameters): load it without a step")
+        return _load_exported(folder)
     workdir, folder_step = _resolve_checkpoint(checkpoint)
     step = folder_step if step is None else int(step)
     absl_logger = logging.getLogger("absl")
@@ -158,12 +192,12 @@ def load_model(checkpoint, step: int | None = None) -> Model:
         config = config_lib.from_dict(_readable_config(workdir, step))
         manager = checkpoints.open_manager(workdir, read_only=True)
         try:
-            abstract = train.abstract_train_state(config)
+            abstract = _sampling_abstract(config)
             if step is None:  # the newest checkpoint that restores, naming any broken one on stderr
-                state, _, extras, step = checkpoints.restore_newest_good(manager, abstract)
+                state, _, extras, step = checkpoints.restore_newest_good(manager, abstract, partial=True)
             else:
                 try:
-                    state, _, extras = checkpoints.restore(manager, abstract, step)
+                    state, _, extras = checkpoints.restore(manager, abstract, step, partial=True)
                 except Exception as error:  # orbax / TensorStore: many types for a broken folder
                     raise checkpoints.CheckpointError(
                         f"checkpoint {checkpoints.checkpoint_dir(workdir) / str(step)} cannot be restored "
@@ -173,8 +207,113 @@ def load_model(checkpoint, step: int | None = None) -> Model:
             manager.close()
     finally:
         absl_logger.setLevel(level)
-    return model_from_state(config, state, extras.get("stats"), extras.get("skeleton"),
-                            f"{workdir} step {int(step)}")
+    return model_from_state(config, _SamplingState(state["params"], state.get("phase_params")),
+                            extras.get("stats"), extras.get("skeleton"), f"{workdir} step {int(step)}")
+
+
+@dataclasses.dataclass(frozen=True)
+class _SamplingState:
+    """What :func:`model_from_state` reads of a train state (``params``, ``phase_params``)."""
+
+    params: dict
+    phase_params: Any
+
+
+# ----------------------------------------------------------------------------------- exported models
+
+
+def _facts_json(model: Model) -> dict:
+    """The model's skeleton facts in the form checkpoints save them (``extras["skeleton"]``)."""
+    return {"joint_names": list(model.joint_names) if model.joint_names is not None else None,
+            "feet": [int(j) for j in model.feet], "feet_names": list(model.feet_names or []),
+            "up_axis": conform.axis_name(model.up_axis), "forward_axis": conform.axis_name(model.forward_axis),
+            "unit_scale": float(model.unit_scale)}
+
+
+def _stored_dtype(dtype: str):
+    if dtype not in STORED_DTYPES:
+        raise InbetweenError(f"parameter dtype {dtype!r}: use one of {', '.join(STORED_DTYPES)}")
+    return jax.numpy.dtype(dtype)
+
+
+def export_model(model: Model, folder, dtype: str = "float16", notes: dict | None = None,
+                 source: str | None = None) -> pathlib.Path:
+    """Write what sampling needs into ``folder`` (created): ``params.msgpack`` holds the generators' (and
+    phase network's, when the model uses one) parameters cast to ``dtype``, ``model.json`` the full config
+    (every field written out, so later changes of the defaults do not change the model), the normalisation
+    statistics, the skeleton facts, ``source`` (default ``model.source``) and ``notes`` (JSON-able). No optimiser
+    or train state.
+    Returns the folder; :func:`load_model` reads it back (parameters as float32)."""
+    from flax import serialization  # reason: only exporting / loading an exported folder needs it
+
+    stored = _stored_dtype(dtype)
+    folder = pathlib.Path(os.fspath(folder)).expanduser()
+    folder.mkdir(parents=True, exist_ok=True)
+    tree = {"generators": {"forward": model.params["forward"], "backward": model.params["backward"]}}
+    if model.phase_params is not None:
+        tree["phase"] = model.phase_params
+    tree = jax.tree.map(lambda x: np.asarray(x).astype(stored), tree)
+    (folder / PARAMS_FILE).write_bytes(serialization.msgpack_serialize(tree))
+    description = {
+        "format": FORMAT, "version": FORMAT_VERSION, "name": model.config.name,
+        "source": model.source if source is None else source,
+        "param_dtype": dtype, "parameters": int(sum(np.size(x) for x in jax.tree.leaves(tree))),
+        "config": config_lib.to_dict(model.config),
+        "stats": {k: np.asarray(v).tolist() for k, v in model.stats.items()},
+        "skeleton": _facts_json(model), "notes": notes or {},
+    }
+    (folder / MODEL_JSON).write_text(json.dumps(description, indent=1) + "\n")
+    return folder
+
+
+def _load_exported(folder: pathlib.Path) -> Model:
+    """The :class:`Model` of an exported folder (:func:`export_model`), parameters as float32."""
+    from flax import serialization  # reason: only exporting / loading an exported folder needs it
+
+    try:
+        description = json.loads((folder / MODEL_JSON).read_text())
+    except ValueError as error:
+        raise InbetweenError(f"{folder / MODEL_JSON} is not valid JSON ({error}); export the model again "
+                             f"(bin/export)") from None
+    if description.get("format") != FORMAT or description.get("version") != FORMAT_VERSION:
+        raise InbetweenError(f"{folder / MODEL_JSON}: not a {FORMAT} version {FORMAT_VERSION} folder (format "
+                             f"{description.get('format')!r}, version {description.get('version')!r}); export "
+                             f"the model again with this stitchjax (bin/export)")
+    params_path = folder / PARAMS_FILE
+    if not params_path.is_file():
+        raise FileNotFoundError(f"{params_path} is missing: export the model again (bin/export)")
+    config = config_lib.from_dict(description["config"])
+    tree = serialization.msgpack_restore(params_path.read_bytes())
+    expected = _sampling_abstract(config)
+    stored = {"params": tree.get("generators", {})}
+    if config.model.phase_modulation:
+        stored["phase_params"] = tree.get("phase")
+    shapes = lambda t: jax.tree.map(lambda x: tuple(np.shape(x)), t)  # noqa: E731
+    if shapes(stored) != shapes(expected):
+        raise InbetweenError(f"{params_path}: the parameters do not match the networks of its config "
+                             f"({description.get('name')!r}); export the model again (bin/export)")
+    stored = jax.tree.map(lambda x: jax.numpy.asarray(np.asarray(x, np.float32)), stored)
+    return model_from_state(config, _SamplingState(stored["params"], stored.get("phase_params")),
+                            description.get("stats"), description.get("skeleton"),
+                            f"{folder} ({description.get('source', 'exported')}, stored {description['param_dtype']})")
+
+
+def pretrained(name: str = RELEASE_MODEL) -> Model:
+    """The release model shipped with the package, ready to sample (no training needed).
+
+        model = stitchjax.pretrained()
+        clips = stitchjax.takes.inbetween_takes(model, take, 100, take, 140, num_samples=4)
+
+    name: a folder of ``stitchjax/models/`` (default :data:`RELEASE_MODEL`: ``lafan1_cpu_mixed``, the
+    LAFAN1 skeleton at 30 fps in centimetres, trained from scratch by the config of that name). Parameters are
+    stored in float16 and computed in float32. Made by ``bin/export``.
+    """
+    folder = MODELS_DIR / name
+    if not (folder / MODEL_JSON).is_file():
+        shipped = sorted(p.parent.name for p in MODELS_DIR.glob(f"*/{MODEL_JSON}"))
+        raise FileNotFoundError(f"no model {name!r} in {MODELS_DIR} (shipped: {', '.join(shipped) or 'none'}); "
+                                f"reinstall stitchjax, or export one with bin/export")
+    return _load_exported(folder)
 
 
 def model_from_state(config, state, stats_json: dict | None, facts: dict | None, source: str) -> Model:
