@@ -45,7 +45,7 @@ from stitchjax import rollout as rollout_lib
 from stitchjax import rotations as R
 from stitchjax.bvh import Motion
 from stitchjax.skeleton import forward_kinematics
-from stitchjax.trained_model import InbetweenError, Model
+from stitchjax.trained_model import InbetweenError, Model, model_or_pretrained
 from stitchjax.windows import CONTACT_THRESHOLD, center_and_face, facing_rotation, foot_contacts
 
 __all__ = [
@@ -268,6 +268,7 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
               noise_correlation: float | None = None) -> list:
     """Generate ``num_samples`` transitions of ``length`` frames from ``start`` to ``target``.
 
+    model: a :class:`Model`, or None for the release model (``stitchjax.pretrained()``).
     start: Motion whose LAST frame is the start keyframe (earlier frames, if any, are context: the one
       before the keyframe measures its foot contacts). target: Motion whose FIRST frame is the target
       keyframe (a following frame, if any, measures its contacts). Both on the model's skeleton.
@@ -287,6 +288,7 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     increasing stitching loss with ``search``. Each carries no extra attributes; use
     :func:`transitions_in_frame` for the stitching losses.
     """
+    model = model_or_pretrained(model)
     _keyframe(start, "start")
     _keyframe(target, "target")
     _check_skeleton(model, start.skeleton)

@@ -1,7 +1,7 @@
 """Take-level in-betweening: keyframes picked from whole takes (any file, units, up axis, frame rate),
 transitions returned as takes.
 
-    model = trained_model.load_model("runs/quickstart")
+    model = trained_model.load_model("runs/quickstart")   # or None: the release model (stitchjax.pretrained())
     clips = inbetween_clip(model, motion, 100, 140, num_samples=8)   # whole takes, frames 101..139 replaced
     placed = inbetween_takes(model, take, 100, other, 50, length=20, offset=(300, 0, 0), turn_degrees=90)
 
@@ -20,7 +20,7 @@ from stitchjax import rotations as R
 from stitchjax.bvh import Motion
 from stitchjax.inbetween import _check_request, _check_skeleton, check_length, inbetween, keyframe_contacts
 from stitchjax.skeleton import forward_kinematics
-from stitchjax.trained_model import InbetweenError, Model
+from stitchjax.trained_model import InbetweenError, Model, model_or_pretrained
 
 __all__ = ["OUTPUTS", "inbetween_takes", "inbetween_clip", "conform_take", "to_model_frame", "from_model_frame",
            "default_length"]
@@ -125,6 +125,8 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
                     scale: float = 1.0, allow_extrapolation: bool = False, noise_scale: float = 1.0,
                     noise_ramp_steps: int = 0, noise_correlation: float | None = None) -> list:
     """Transitions from frame ``start_frame`` of one take to frame ``target_frame`` of another (or the same).
+    ``model``: a :class:`Model`, or None for the release model (``stitchjax.pretrained()``); the same in
+    :func:`inbetween_clip`.
 
     Both takes are brought onto the model's terms first (:func:`conform_take`: the training files' units and
     up axis to cm and +Y up, joints by name, units checked; ``scale`` multiplies their positions) and
@@ -143,6 +145,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     Returns ``num_samples`` Motions at the model's frame rate on the model's skeleton (the takes' own
     skeleton and channel layout when their joints already match), positions in the takes' units and axes.
     """
+    model = model_or_pretrained(model)  # None: the release model
     if output not in OUTPUTS:
         raise InbetweenError(f"output {output!r}: use one of {', '.join(OUTPUTS)}")
     if not np.isfinite(scale) or scale <= 0:

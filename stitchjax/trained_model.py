@@ -17,6 +17,7 @@ skeleton facts) and ``params.msgpack`` (the generators' and phase network's para
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import logging
 import os
@@ -31,7 +32,7 @@ from stitchjax import config as config_lib
 from stitchjax.skeleton import LAFAN1_FEET
 
 __all__ = ["InbetweenError", "Model", "RELEASE_MODEL", "export_model", "load_model", "model_from_state",
-           "pretrained", "random_model", "with_matmul_dtype"]
+           "model_or_pretrained", "pretrained", "random_model", "with_matmul_dtype"]
 
 MODELS_DIR = pathlib.Path(__file__).resolve().parent / "models"  # exported models shipped with the package
 RELEASE_MODEL = "lafan1_cpu_mixed"  # the folder of MODELS_DIR that pretrained() loads
@@ -295,7 +296,7 @@ def _load_exported(folder: pathlib.Path) -> Model:
     stored = jax.tree.map(lambda x: jax.numpy.asarray(np.asarray(x, np.float32)), stored)
     return model_from_state(config, _SamplingState(stored["params"], stored.get("phase_params")),
                             description.get("stats"), description.get("skeleton"),
-                            f"{folder} ({description.get('source', 'exported')}, stored {description['param_dtype']})")
+                            f"{folder.name} (exported from {description.get('source', 'a training run')}, stored in {description['param_dtype']})")
 
 
 def pretrained(name: str = RELEASE_MODEL) -> Model:
@@ -314,6 +315,16 @@ def pretrained(name: str = RELEASE_MODEL) -> Model:
         raise FileNotFoundError(f"no model {name!r} in {MODELS_DIR} (shipped: {', '.join(shipped) or 'none'}); "
                                 f"reinstall stitchjax, or export one with bin/export")
     return _load_exported(folder)
+
+
+@functools.lru_cache(maxsize=4)
+def _pretrained_once(name: str) -> Model:
+    return pretrained(name)
+
+
+def model_or_pretrained(model: Model | None) -> Model:
+    """``model``, or the release model (:func:`pretrained`, loaded once per process) when it is None."""
+    return _pretrained_once(RELEASE_MODEL) if model is None else model
 
 
 def model_from_state(config, state, stats_json: dict | None, facts: dict | None, source: str) -> Model:
