@@ -140,8 +140,9 @@ def _resolve_checkpoint(path) -> tuple[pathlib.Path, int | None]:
         return path.parent, None
     if path.name.isdigit() and path.parent.name == "checkpoints":
         return path.parent.parent, int(path.name)
-    raise FileNotFoundError(f"{path} holds no checkpoints (expected {path / 'checkpoints'}/<step>/): pass "
-                            f"the folder given to bin/train --workdir")
+    raise FileNotFoundError(f"{path} holds no checkpoints (expected {path / 'checkpoints'}/<step>/) and no "
+                            f"exported model ({MODEL_JSON}): pass the folder given to bin/train --workdir, or one "
+                            f"written by bin/export")
 
 
 def _readable_config(workdir, step):
