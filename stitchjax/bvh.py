@@ -264,6 +264,7 @@ def _parse_hierarchy(tokens: _Tokens):
     return names, parents, np.array(offsets, dtype=np.float64), tuple(channels), tuple(end_sites)
 
 
+_HIERARCHY_RE = re.compile(r"\s*HIERARCHY\b", re.IGNORECASE)  # the first word of a BVH file
 _MOTION_RE = re.compile(r"^[ \t]*MOTION[ \t]*\r?$", re.MULTILINE | re.IGNORECASE)
 
 
@@ -328,6 +329,10 @@ def load(path) -> Motion:
     """
     path = pathlib.Path(os.fspath(path))
     text = _read_text(path)
+    if not _HIERARCHY_RE.match(text):
+        what = "it is empty" if not text.strip() else "its first line is not HIERARCHY"
+        raise BVHError(f"{path}: not a BVH file: {what} (a BVH file starts with a HIERARCHY block, then "
+                       f"MOTION); pass a .bvh or .bvh.gz file")
     match = _MOTION_RE.search(text)
     if match is None:
         raise BVHError(f"{path}: no MOTION line: the file has a hierarchy but no motion block "

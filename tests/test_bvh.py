@@ -226,6 +226,16 @@ def test_malformed_files_raise_bvherror_naming_the_line(tmp_path, name, text, li
     assert isinstance(info.value, ValueError)
 
 
+@pytest.mark.parametrize("content", [b"", b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", b"MOTION\nFrames: 1\n"],
+                         ids=["empty", "png", "no hierarchy"])
+def test_a_file_without_hierarchy_is_not_a_bvh_file(tmp_path, content):
+    path = tmp_path / "picture.bvh"
+    path.write_bytes(content)
+    with pytest.raises(bvh.BVHError, match="not a BVH file") as info:
+        bvh.load(path)
+    assert str(path) in str(info.value) and "no MOTION line" not in str(info.value)
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(FileNotFoundError, match="nothere.bvh"):
         bvh.load(tmp_path / "nothere.bvh")
