@@ -10,6 +10,8 @@ latent interpolation, diversity against length); sampling from the prior is ``st
 from __future__ import annotations
 
 import functools
+import os
+import pathlib
 
 import jax
 import jax.numpy as jnp
@@ -19,7 +21,37 @@ from stitchjax import rollout as rollout_lib
 from stitchjax.inbetween import _alignment, _check_request, _check_skeleton, stitch_losses
 from stitchjax.trained_model import InbetweenError, Model
 
-__all__ = ["noise_shape", "window_keyframes", "rollout_details"]
+__all__ = ["noise_shape", "window_keyframes", "rollout_details", "checkpoint_from_env", "DEMO"]
+
+DEMO = "demo"  # STITCHJAX_CHECKPOINT=demo: the notebook trains a tiny model for a few steps (an untrained demo)
+
+
+def checkpoint_from_env(environ=None):
+    """The run folder the notebook is asked to explore: ``STITCHJAX_CHECKPOINT`` as a path, or :data:`DEMO`.
+
+    A relative path is taken from the directory the command was run in: ``STITCHJAX_CWD``, else the shell's
+    ``PWD`` (``jupyter nbconvert`` runs the kernel in ``notebooks/``, so the kernel's own working directory is
+    not it). Raises FileNotFoundError when the variable is unset or names nothing (the message names the
+    resolved path); no model is ever made up unless asked for by name (``STITCHJAX_CHECKPOINT=demo``).
+    """
+    environ = os.environ if environ is None else environ
+    value = environ.get("STITCHJAX_CHECKPOINT", "").strip()
+    if not value:
+        raise FileNotFoundError("STITCHJAX_CHECKPOINT is not set: set it to a training run folder (bin/train "
+                                "--workdir DIR), e.g. STITCHJAX_CHECKPOINT=runs/quickstart, or to 'demo' for "
+                                "a tiny model trained for 3 steps (an untrained demo)")
+    if value == DEMO:
+        return DEMO
+    path = pathlib.Path(value).expanduser()
+    base = None
+    if not path.is_absolute():
+        base = environ.get("STITCHJAX_CWD") or environ.get("PWD") or os.getcwd()
+        path = pathlib.Path(base) / path
+    if not path.exists():
+        where = f" (a relative path is taken from {base}, the directory the command was run in)" if base else ""
+        raise FileNotFoundError(f"STITCHJAX_CHECKPOINT={value}: {path} does not exist{where}; pass a training "
+                                f"run folder (bin/train --workdir DIR) or one of its checkpoints/<step> folders")
+    return path
 
 
 def noise_shape(model: Model, length: int) -> tuple:
