@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import pathlib
 import subprocess
 import sys
@@ -111,9 +112,12 @@ def run_inbetween(args, start: pathlib.Path, target: pathlib.Path, out: pathlib.
     command = [sys.executable, str(REPO / "bin" / "inbetween"), "--checkpoint", str(args.checkpoint),
                "--bvh", str(start), "--start-frame", str(args.start_frame), "--target-bvh", str(target),
                "--target-frame", str(args.target_frame), "--length", str(args.length),
-               "--target-offset=" + ",".join(f"{x:.6f}" for x in offset), "--target-turn", str(args.turn), "--samples", str(args.samples),
+               "--target-offset=" + ",".join(f"{x:.6f}" for x in offset), "--offset-from", "file",  # measured here
+               "--target-turn", str(args.turn), "--samples", str(args.samples),
                "--search", str(args.search), "--seed", str(args.seed), "--output", "transition", "--out", str(out)]
-    proc = subprocess.run(command, capture_output=True, text=True)
+    command += ["--allow-fast"] if args.allow_fast else []
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO)] + [p for p in [os.environ.get("PYTHONPATH")] if p])}
+    proc = subprocess.run(command, capture_output=True, text=True, env=env)  # this checkout's package
     if proc.returncode != 0:
         lines = [line for line in proc.stderr.splitlines() if line.strip()] or ["(no message)"]
         raise UserError(f"bin/inbetween failed ({proc.returncode}): {lines[-1]}")
@@ -171,6 +175,8 @@ def main(argv=None) -> int:
     parser.add_argument("--offset-from", choices=("start", "file"), default="start",
                         help="--offset from the start keyframe's root (default) or from the target take's own place")
     parser.add_argument("--turn", type=float, default=90.0, help="target turn about the vertical, degrees")
+    parser.add_argument("--allow-fast", action="store_true",
+                        help="pass --allow-fast to bin/inbetween (a transition faster than the training data's)")
     parser.add_argument("--samples", type=int, default=8)
     parser.add_argument("--search", type=int, default=0)
     parser.add_argument("--seed", type=int, default=0)

@@ -5,6 +5,7 @@ dataset (``stitchjax.bvh_folder``) on load and by ``stitchjax.takes`` on keyfram
 
 - :func:`resample`: a take at another frame rate, slerp for rotations and linear for positions, on a
   time grid anchored at one frame so that frame is kept exactly;
+- :func:`retime`: a transition stretched onto another number of frames, both ends kept (back to a take's rate);
 - :func:`scale_ratio`, :func:`check_scale`: the ratio of a skeleton's bone lengths to a reference one
   (units: metres vs centimetres), refused with the measured ratio and the fix;
 - :func:`rescale`: positions and offsets times a factor;
@@ -23,7 +24,7 @@ import numpy as np
 from stitchjax import rotations as R
 from stitchjax.skeleton import Skeleton, forward_kinematics, inverse_kinematics
 
-__all__ = ["ConformError", "resample", "bone_lengths", "scale_ratio", "check_scale", "rescale", "parse_axis",
+__all__ = ["ConformError", "resample", "retime", "bone_lengths", "scale_ratio", "check_scale", "rescale", "parse_axis",
            "axis_name", "up_turn", "to_y_up", "from_y_up", "map_joints", "place", "SCALE_TOLERANCE"]
 
 SCALE_TOLERANCE = 0.1  # bone lengths may differ from the reference by 10 % (other actors) before refusing
@@ -54,6 +55,17 @@ def resample(motion, fps: float, anchor: int = 0):
     last = int(np.floor((duration - t_anchor) * fps + 1e-9))
     times = t_anchor + np.arange(first, last + 1) / fps  # seconds
     source = np.clip(times * motion.fps, 0.0, n - 1)  # fractional source frames
+    rotations, positions = _sample_at(motion, source)
+    k = -first
+    rotations[k], positions[k] = motion.rotations[anchor], motion.positions[anchor]
+    rotations = R.quat_continuity(rotations, axis=0)
+    out = dataclasses.replace(motion, rotations=rotations, positions=positions, fps=fps)
+    return out, k
+
+
+def _sample_at(motion, source):
+    """(rotations, positions) of ``motion`` at fractional frames ``source`` (F,): slerp / lerp."""
+    n = motion.num_frames
     lo = np.minimum(np.floor(source).astype(np.int64), max(n - 2, 0))
     hi = np.minimum(lo + 1, n - 1)
     w = (source - lo)[:, None]
@@ -61,11 +73,22 @@ def resample(motion, fps: float, anchor: int = 0):
     q1 = np.where(np.sum(q0 * q1, axis=-1, keepdims=True) < 0, -q1, q1)  # short arc
     rotations = R.quat_normalize(R.quat_slerp(q0, q1, np.broadcast_to(w, q0.shape[:-1])))
     positions = (1.0 - w[..., None]) * motion.positions[lo] + w[..., None] * motion.positions[hi]
-    k = -first
-    rotations[k], positions[k] = motion.rotations[anchor], motion.positions[anchor]
+    return rotations, positions
+
+
+def retime(motion, num_frames: int, fps: float):
+    """``motion`` stretched onto ``num_frames`` evenly spaced frames from its first frame to its last (both
+    kept exactly), labelled ``fps``: slerp for rotations, linear for positions. A transition generated at a
+    model's frame rate goes back to a take's rate this way (its duration is then the take's frames)."""
+    num_frames = int(num_frames)
+    if num_frames < 2:
+        raise ConformError(f"retime needs at least 2 frames (the two ends), got {num_frames}")
+    source = np.linspace(0.0, motion.num_frames - 1, num_frames)
+    rotations, positions = _sample_at(motion, source)
+    for k, frame in ((0, 0), (-1, motion.num_frames - 1)):
+        rotations[k], positions[k] = motion.rotations[frame], motion.positions[frame]
     rotations = R.quat_continuity(rotations, axis=0)
-    out = dataclasses.replace(motion, rotations=rotations, positions=positions, fps=fps)
-    return out, k
+    return dataclasses.replace(motion, rotations=rotations, positions=positions, fps=float(fps))
 
 
 def bone_lengths(offsets) -> np.ndarray:

@@ -24,6 +24,7 @@ from stitchjax import skeleton as skel
 __all__ = [
     "state_dim", "state_vector", "split_state", "root_velocities", "offset_features",
     "local_positions", "integrate_root", "prepare_dataset", "dataset_states", "DatasetError",
+    "root_speed_percentiles",
 ]
 
 
@@ -141,3 +142,20 @@ def dataset_states(dataset: dict, config):
     velocity = root_velocities(dataset["root_positions"], config.data.velocity_scale)
     velocity = xp.concatenate([velocity[:, 1:2], velocity[:, 1:]], axis=1)
     return state_vector(dataset["rotations"], velocity, dataset["contacts"])
+
+
+def root_speed_percentiles(root_positions, fps: float, up_axis: int = 1) -> dict:
+    """How fast the root moves over the ground in a set of windows: {"p50", "p99", "max"} in cm/s.
+
+    root_positions: (..., T, 3) root positions in cm (training windows: (N, T, 3)); fps: their frame rate.
+    The speed of each frame step is the horizontal distance (the axes other than ``up_axis``) between
+    consecutive frames times ``fps``. ``bin/train`` saves the 99th percentile as ``stats["root_speed_p99"]``:
+    the fastest a placed target may ask a transition to travel (``stitchjax.takes``).
+    """
+    p = np.asarray(root_positions, np.float64)
+    horizontal = [a for a in range(3) if a != up_axis]
+    speed = np.linalg.norm(np.diff(p[..., horizontal], axis=-2), axis=-1).ravel() * float(fps)
+    if speed.size == 0:
+        raise DatasetError("no frame steps to measure the root speed on (windows of one frame)")
+    return {"p50": float(np.percentile(speed, 50)), "p99": float(np.percentile(speed, 99)),
+            "max": float(speed.max())}

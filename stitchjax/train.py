@@ -471,6 +471,10 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
         raise TrainingError(str(error)) from None
     extras = {"stats": datasets.stats_to_json(stats), "config_name": config_name,
               "skeleton": datasets.skeleton_facts(data_dir, config.data)}
+    # the training windows' 99th percentile of horizontal root speed (cm/s): the fastest transition a
+    # placed target may ask for (stitchjax.takes)
+    extras["stats"]["root_speed_p99"] = features.root_speed_percentiles(dataset["root_positions"],
+                                                                        config.data.fps)["p99"]
     saver = _Saver(manager, config_json, extras, latest)
     validate = (make_validator(config, data_dir, extras["stats"], extras["skeleton"])
                 if make_validator is not None and config.train.eval_every > 0 else None)

@@ -14,7 +14,8 @@ import sys
 import numpy as np
 import pytest
 
-from stitchjax import bvh, conform, inbetween, rotations as R, sample, takes, trained_model
+from stitchjax import bvh, conform, features, inbetween, rotations as R, sample, takes, trained_model
+from stitchjax import config as config_lib
 from stitchjax.skeleton import Skeleton
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
@@ -48,7 +49,8 @@ def test_length_beyond_training_is_an_error_naming_both(model, take):
 def test_target_from_another_take_placed_by_offset_and_turn(model, take):
     other = bvh.load(sample.sample_files(["subject1"])[0])
     samples = takes.inbetween_takes(model, take, 100, other, 50, LENGTH, SAMPLES, seed=0,
-                                        offset=(300.0, 0.0, 0.0), turn_degrees=90.0, output="transition")
+                                        offset=(300.0, 0.0, 0.0), turn_degrees=90.0, output="transition",
+                                        offset_from="file", allow_fast=True)
     placed = conform.place(other, (300.0, 0.0, 0.0), 90.0, pivot=50)
     want_end = placed[50].global_positions()[0]
     # the placed target: root moved by 300 cm along x, the body turned a quarter about the vertical
@@ -63,7 +65,8 @@ def test_target_from_another_take_placed_by_offset_and_turn(model, take):
         assert np.abs(g[0] - take[100].global_positions()[0]).max() < 1e-4
         assert np.abs(g[-1] - want_end).max() < 1e-4
     appended = takes.inbetween_takes(model, take, 100, other, 50, LENGTH, 1, offset=(300.0, 0.0, 0.0),
-                                         turn_degrees=90.0, output="appended")[0]
+                                         turn_degrees=90.0, output="appended", offset_from="file",
+                                         allow_fast=True)[0]
     assert appended.num_frames == 100 + LENGTH + 2
     np.testing.assert_allclose(appended.global_positions()[:101], take[:101].global_positions(), atol=1e-9)
     np.testing.assert_allclose(appended.global_positions()[-1], want_end, atol=1e-4)
@@ -90,7 +93,7 @@ def test_model_of_z_up_files_takes_a_z_up_take_and_gives_it_back_z_up(model, tak
     z_model = dataclasses.replace(model, up_axis=(0.0, 0.0, 1.0), unit_scale=2.54)
     z_take = conform.rescale(conform.from_y_up(take, (0.0, 0.0, 1.0)), 1 / 2.54)
     assert np.abs(z_take.global_positions()[100, 13, 2] - take.global_positions()[100, 13, 1] / 2.54) < 1e-9
-    kw = dict(length=LENGTH, num_samples=2, turn_degrees=30.0, output="appended")
+    kw = dict(length=LENGTH, num_samples=2, turn_degrees=30.0, output="appended", allow_fast=True)
     y_out = takes.inbetween_takes(model, take, 100, take, 300, offset=(0.0, 0.0, 200.0), **kw)
     z_out = takes.inbetween_takes(z_model, z_take, 100, z_take, 300, offset=(0.0, -200 / 2.54, 0.0), **kw)
     for y, z in zip(y_out, z_out):
@@ -99,22 +102,57 @@ def test_model_of_z_up_files_takes_a_z_up_take_and_gives_it_back_z_up(model, tak
         np.testing.assert_allclose(z.positions[:101], z_take.positions[:101], rtol=0, atol=1e-9)
 
 
-def test_take_at_120_fps_is_resampled_and_keeps_the_keyframes(model, take):
+def test_take_at_120_fps_keeps_its_rate_frames_and_keyframes(model, take):
     fast, anchor = conform.resample(take[80:140], 120.0, 20)  # frame 100 of the take -> frame 80 at 120 fps
     assert fast.fps == 120.0 and anchor == 80 and fast.num_frames == 237
     np.testing.assert_array_equal(fast.rotations[80], take.rotations[100])
-    a, b = 80, 80 + 4 * (LENGTH + 1)  # frames 100 and 109 of the 30 fps take
+    a, b = 80, 80 + 4 * (LENGTH + 1)  # 36 frames apart at 120 fps: 0.3 s, 9 frame steps of the model
+    assert takes.model_length(model, 120.0, b - a - 1) == LENGTH
     clips = takes.inbetween_clip(model, fast, a, b, num_samples=SAMPLES)
     out = clips[0]
-    assert out.fps == 30.0  # written at the model's rate, so it plays at the right speed
-    assert out.num_frames == 60  # the 120 fps take spans 60 frames at 30 fps
-    g, want = out.global_positions(), take[80:140].global_positions()
-    assert np.abs(g[20] - want[20]).max() < 1e-6 and np.abs(g[29] - want[29]).max() < 1e-6
-    np.testing.assert_allclose(g[:20], want[:20], atol=1e-6)  # the resampled frames land on the originals
-    # root speed per second outside the transition equals the 30 fps take's (not four times it)
-    speed = np.linalg.norm(np.diff(g[30:, 0], axis=0), axis=-1).mean() * out.fps
-    speed_ref = np.linalg.norm(np.diff(want[30:, 0], axis=0), axis=-1).mean() * 30.0
-    assert abs(speed - speed_ref) < 1e-6 * max(speed_ref, 1.0)
+    assert out.fps == 120.0 and out.num_frames == fast.num_frames  # the take's rate and frame count
+    keep = np.r_[0:a + 1, b:fast.num_frames]  # every frame but the 35 between the keyframes, as they were
+    np.testing.assert_array_equal(out.rotations[keep], fast.rotations[keep])
+    np.testing.assert_array_equal(out.positions[keep], fast.positions[keep])
+    g = out.global_positions()
+    assert np.all(np.isfinite(g)) and np.abs(g[a + 1:b] - fast.global_positions()[a + 1:b]).max() > 1e-3
+    # the generated frames move smoothly at 120 fps: no step is longer than the keyframes' whole gap
+    steps = np.linalg.norm(np.diff(g[a:b + 1, 0], axis=0), axis=-1)
+    assert steps.max() < max(np.linalg.norm(g[b, 0] - g[a, 0]), 1.0)
+
+
+def test_placed_target_from_the_start_stays_within_the_data_speed_from_the_file_is_refused(model, take):
+    """The 300 cm / 40-frame target turned 90 degrees: measured from the start keyframe's root it asks for
+    2.2 m/s (under LAFAN1's 99th percentile, 3.31 m/s); from where its file has it, it is refused."""
+    model = dataclasses.replace(model, config=config_lib.apply_overrides(model.config, ["train.max_length=40"]))
+    other = bvh.load(sample.sample_files(["subject1"])[0])
+    kw = dict(length=40, num_samples=1, offset=(300.0, 0.0, 0.0), turn_degrees=90.0, output="transition")
+    limit, _ = takes.root_speed_limit(model)  # a checkpoint without its own: LAFAN1's
+    assert limit == takes.LAFAN1_ROOT_SPEED_P99
+    out = takes.inbetween_takes(model, take, 100, other, 50, **kw)[0]
+    root = out.positions[:, 0]
+    assert out.num_frames == 42
+    assert np.hypot(*(root[-1] - root[0])[[0, 2]]) == pytest.approx(300.0, abs=1e-6)
+    assert takes.required_root_speed(root[0], root[-1], 40, 30.0) == pytest.approx(300.0 * 30 / 41)
+    assert 300.0 * 30 / 41 < limit
+    from_file = np.hypot(*(other.positions[50, 0] + [300.0, 0.0, 0.0] - take.positions[100, 0])[[0, 2]])
+    assert from_file * 30 / 41 > limit  # the same target where its file has it is too far for 40 frames
+    with pytest.raises(inbetween.InbetweenError, match=r"m/s .*faster than 3\.31 m/s.*more frames \(length \d+"
+                                                          r".*--offset-from start.*--allow-fast"):
+        takes.inbetween_takes(model, take, 100, other, 50, offset_from="file", **kw)
+    # a limit saved at training time wins over LAFAN1's
+    slow = dataclasses.replace(model, stats={**model.stats, "root_speed_p99": 100.0})
+    with pytest.raises(inbetween.InbetweenError, match=r"faster than 1\.00 m/s, the 99th percentile of the "
+                                                       r"training data"):
+        takes.inbetween_takes(slow, take, 100, other, 50, **kw)
+
+
+def test_root_speed_percentiles_of_windows():
+    steps = np.zeros((2, 5, 3))
+    steps[:, :, 0] = np.arange(5) * 2.0  # 2 cm per frame along x
+    steps[1, :, 1] = np.arange(5) * 7.0  # height changes are not ground speed
+    speed = features.root_speed_percentiles(steps, fps=30.0)
+    assert speed == pytest.approx({"p50": 60.0, "p99": 60.0, "max": 60.0})
 
 
 def _with_extra_root(motion):
@@ -187,6 +225,7 @@ def test_cli_target_from_another_take_with_offset_and_turn(tiny_run, tmp_path):
     other = sample.sample_files(["subject1"])[0]
     result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--target-bvh", other,
                   "--target-frame", 50, "--length", LENGTH, "--target-offset", "300,0,0", "--target-turn", 90,
+                  "--offset-from", "file", "--allow-fast",
                   "--samples", SAMPLES, "--output", "transition", "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     files = sorted(tmp_path.glob("*.bvh"))
@@ -195,3 +234,49 @@ def test_cli_target_from_another_take_with_offset_and_turn(tiny_run, tmp_path):
     for path in files:
         g = bvh.load(path).global_positions()
         assert g.shape[0] == LENGTH + 2 and np.abs(g[-1] - want).max() < 1e-3
+
+
+def test_cli_negative_offsets_parse_and_a_too_fast_target_is_refused(tiny_run, tmp_path, capsys):
+    loader = importlib.machinery.SourceFileLoader("bin_inbetween", str(REPO / "bin" / "inbetween"))
+    module = importlib.util.module_from_spec(importlib.util.spec_from_loader(loader.name, loader))
+    loader.exec_module(module)
+    argv = ["--checkpoint", "c", "--bvh", "b", "--start-frame", "1", "--target-bvh", "t", "--target-frame", "2",
+            "--target-offset", "-89.3,0,728.2", "--out", "o"]
+    args = module.build_parser().parse_args(module._join_negative_values(argv))
+    assert module._parse_offset(args.target_offset) == [-89.3, 0.0, 728.2] and args.offset_from == "start"
+    source = sample.sample_files(["subject5"])[0]
+    other = sample.sample_files(["subject1"])[0]
+    base = ["--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--target-bvh", other,
+            "--target-frame", 50, "--length", LENGTH, "--out", tmp_path / "o"]
+    result = _cli_here(capsys, *base, "--target-offset", "-300,0,0", "--offset-from", "file")
+    assert result.returncode == 2 and result.stderr.strip().count("\n") == 0
+    assert "faster than 3.31 m/s" in result.stderr and "--allow-fast" in result.stderr
+    assert not (tmp_path / "o").exists()
+
+
+TINY_WIDTHS = ["model.encoder_widths=16,16,16", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
+               "model.gating_widths=8,8", "model.disc_widths=16,16", "phase.hidden_dim=16", "phase.num_layers=1"]
+
+
+def test_cmu_take_at_120_fps_keeps_its_frame_numbers_rate_and_count(shared_data):
+    """Frames 400 and 441 of the 120 fps CMU take: 40 frames between them at 120 fps in the output (9
+    generated at the model's 30 fps, resampled back), the take's 2752 frames, every other frame as it was."""
+    import jax
+
+    from stitchjax import datasets, train
+
+    folder = shared_data / "cmu"
+    config = config_lib.apply_overrides(config_lib.load_config("cmu"), TINY_WIDTHS + ["train.max_length=10"])
+    state = train.create_train_state(config, jax.random.PRNGKey(0))
+    model = trained_model.model_from_state(config, state, None, datasets.skeleton_facts(folder, config.data), "test")
+    cmu = bvh.load(folder / "01_01.bvh")
+    assert cmu.fps == 120.0 and cmu.num_frames == 2752
+    assert takes.model_length(model, cmu.fps, 441 - 400 - 1) == 9
+    out = takes.inbetween_clip(model, cmu, 400, 441, num_samples=2)
+    for motion in out:
+        assert motion.fps == 120.0 and motion.num_frames == cmu.num_frames
+        keep = np.r_[0:401, 441:cmu.num_frames]  # the keyframes and every frame outside the gap
+        np.testing.assert_array_equal(motion.rotations[keep], cmu.rotations[keep])
+        np.testing.assert_allclose(motion.positions[keep], cmu.positions[keep], rtol=0, atol=1e-9)  # units x 5.6444 and back
+        gap = motion.positions[401:441, 0]
+        assert np.all(np.isfinite(gap)) and np.abs(gap - cmu.positions[401:441, 0]).max() > 1e-3  # generated
