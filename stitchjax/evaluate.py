@@ -42,7 +42,9 @@ BENCHMARK_LENGTHS = (5, 15, 30, 45)
 PROTOCOL_LENGTHS = (10, 15, 30, 45, 50)
 CONTEXT_FRAMES = 10  # official benchmark: 10 context frames, the last one (frame 9) is the start keyframe
 START_FRAME = CONTEXT_FRAMES - 1
-METRIC_KEYS = ("apd", "spread", "spread_mid", "ade", "ade_best", "slde", "npss", "foot_slide", "l2p", "l2q")
+METRIC_KEYS = ("apd", "spread", "spread_mid", "ade", "ade_best", "slde", "npss", "foot_slide", "l2p", "l2q",
+               "penetration", "penetration_max", "penetration_share", "toe_clearance")
+CONTACT_KEYS = ("penetration", "penetration_max", "penetration_share", "toe_clearance")  # ground truth has them too
 
 
 def _units(metres_per_unit: float) -> dict:
@@ -57,6 +59,10 @@ def _units(metres_per_unit: float) -> dict:
         "foot_slide": "cm/frame",
         "l2p": "unitless (z-scored global positions)",
         "l2q": "unitless (global quaternions)",
+        "penetration": "cm (mean depth of the foot joint-frames below the window's ground)",
+        "penetration_max": "cm (the deepest foot joint-frame below the window's ground)",
+        "penetration_share": "fraction of foot joint-frames below the window's ground",
+        "toe_clearance": "cm (mean over swings of each swing's highest toe height above the window's ground)",
         "data_positions": f"{metres_per_unit:g} m per unit",
     }
 
@@ -230,6 +236,7 @@ class _Accumulator:
             ("ade", "ade_best", "slde", "apd", "spread", "spread_mid", "npss", "l2p", "l2q", "slide",
              "slide_count"), 0.0
         )
+        self.contact = _Contact()
         self.count = 0  # sample-windows
         self.windows = 0
 
@@ -247,11 +254,13 @@ class _Accumulator:
             "foot_slide": s["slide"] / s["slide_count"] if s["slide_count"] > 0 else 0.0,
             "l2p": s["l2p"] / n,
             "l2q": s["l2q"] / n,
+            **self.contact.result(),
         }
 
-    def add(self, q, p, gt_q, gt_p, target_pose, ground, truth: "_Truth") -> None:
+    def add(self, q, p, gt_q, gt_p, target_pose, ground, truth: "_Truth", start_pose=None) -> None:
         """Add one chunk of a method's FK predictions q, p (S, b, L, J, ...) against the ground truth
-        gt_q, gt_p (b, L, J, ...); target_pose (1, b, 1, J, 3) ends the foot-slide track."""
+        gt_q, gt_p (b, L, J, ...); target_pose (1, b, 1, J, 3) ends the foot-slide track, start_pose
+        (1, b, 1, J, 3) begins the toes' swings with it."""
         s, length = self.sums, p.shape[2]
         displacement = metrics.displacement_per_window(p, gt_p)  # (S, b)
         s["ade"] += float(displacement.sum())
@@ -267,8 +276,38 @@ class _Accumulator:
         weighted, count = metrics.foot_slide_parts(full, ground, **truth.slide_kw)
         s["slide"] += float(weighted.sum())
         s["slide_count"] += float(count.sum())
+        framed = full if start_pose is None else np.concatenate(
+            [np.broadcast_to(start_pose, p[:, :, :1].shape), full], axis=2)
+        self.contact.add(p, framed, ground, truth.contact_kw)
         self.count += displacement.size
         self.windows += displacement.shape[1]
+
+
+class _Contact:
+    """Running sums of the ground-contact figures (``metrics.ground_penetration_parts`` on the generated
+    frames, ``metrics.swing_clearance_parts`` on them with both keyframes) of one method or the truth."""
+
+    def __init__(self):
+        self.depth = self.below = self.total = self.deepest = self.clearance = self.swings = 0.0
+
+    def add(self, generated, framed, ground, kw: dict) -> None:
+        depth, below, total, deepest = metrics.ground_penetration_parts(
+            generated, ground, kw["feet"], kw["metres_per_unit"], kw["up_axis"])
+        clearance, swings = metrics.swing_clearance_parts(
+            framed, ground, kw["toes"], kw["swing_speed_cm_per_frame"], kw["metres_per_unit"], kw["up_axis"])
+        self.depth += float(depth.sum())
+        self.below += float(below.sum())
+        self.total += float(total.sum())
+        self.deepest = max(self.deepest, float(np.max(deepest, initial=0.0)))
+        self.clearance += float(clearance.sum())
+        self.swings += float(swings.sum())
+
+    def result(self) -> dict:
+        """{penetration, penetration_max, penetration_share, toe_clearance}; toe_clearance None without swings."""
+        return {"penetration": self.depth / self.below if self.below else 0.0,
+                "penetration_max": self.deepest,
+                "penetration_share": self.below / self.total if self.total else 0.0,
+                "toe_clearance": self.clearance / self.swings if self.swings else None}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -282,6 +321,7 @@ class _Truth:
     mean: np.ndarray  # (J*3,) training statistics, for L2P
     std: np.ndarray
     slide_kw: dict  # feet, metres_per_unit, up_axis of metrics.foot_slide_parts
+    contact_kw: dict  # feet, toes, metres_per_unit, up_axis, swing_speed_cm_per_frame of _Contact
 
 
 def _check_protocol_lengths(lengths: Sequence[int], start: int, num_frames: int) -> None:
@@ -322,6 +362,7 @@ def _protocol_length(methods: Mapping[str, Callable], windows: "Windows", truth:
     accumulators = {name: _Accumulator() for name in methods}
     npss_power = 0.0
     gt_slide, gt_slide_count = 0.0, 0.0
+    gt_contact = _Contact()
     for chunk_index, chunk in enumerate(chunks):
         gt_q, gt_p = truth.rotations[chunk, scored], truth.positions[chunk, scored]
         ground = truth.ground[chunk]
@@ -331,18 +372,21 @@ def _protocol_length(methods: Mapping[str, Callable], windows: "Windows", truth:
                                                    **truth.slide_kw)
         gt_slide += float(weighted.sum())
         gt_slide_count += float(count.sum())
+        gt_contact.add(gt_p, truth.positions[chunk, start:target + 1], ground, truth.contact_kw)
         chunk_windows = windows[chunk]
         call_seed = int(seed) * 1_000_003 + length * 10_007 + chunk_index
         target_pose = truth.positions[chunk, target][None, :, None]  # (1, b, 1, J, 3)
+        start_pose = truth.positions[chunk, start][None, :, None]
         expected = (gt_q.shape[0], length, gt_q.shape[2])
         for name, method in methods.items():
             q, p = _predict(name, method, chunk_windows, start, length, samples, call_seed, truth.parents,
                             expected)
-            accumulators[name].add(q, p, gt_q, gt_p, target_pose, ground, truth)
+            accumulators[name].add(q, p, gt_q, gt_p, target_pose, ground, truth, start_pose)
             if bar is not None:
                 bar.update(1)
     entry = {name: acc.result(npss_power, metres_per_unit) for name, acc in accumulators.items()}
-    entry["ground_truth"] = {"foot_slide": gt_slide / gt_slide_count if gt_slide_count > 0 else 0.0}
+    entry["ground_truth"] = {"foot_slide": gt_slide / gt_slide_count if gt_slide_count > 0 else 0.0,
+                             **gt_contact.result()}
     return entry
 
 
@@ -370,6 +414,12 @@ def evaluate_protocol(
     generated frames start+1 .. start+L are scored. Foot slide: for every generated frame, the
     displacement to the next frame (the last one's is to the target keyframe), weighted by the
     height above the window's ground (lowest ground-truth foot height in the whole window).
+    Ground contact (cm, against the same ground, ``metrics.ground_penetration_parts`` /
+    ``swing_clearance_parts``): "penetration" the mean depth of the generated foot joint-frames below the
+    ground, "penetration_max" the deepest, "penetration_share" the share of foot joint-frames below it, and
+    "toe_clearance" the mean of each swing's highest toe height (toes: ``feet[1::2]``, the order left foot,
+    left toe, right foot, right toe; swings from the start to the target keyframe, a toe moving faster than
+    ``metrics.SWING_SPEED_CM_PER_S``; None when no toe swings); the ground truth gets them too.
     With S samples per window, ADE, SLDE, NPSS, L2P and L2Q are averaged over samples, ADE best
     keeps the best sample of each window, APD averages the sample pairs of each window and foot
     slide pools all samples. A method returning one sample is deterministic (APD 0). "spread" is the
@@ -377,7 +427,7 @@ def evaluate_protocol(
     settings: optional method name -> a short description (e.g. "search 16, noise x1"), kept in the
     results and printed beside the method.
     Returns {"n_windows", "samples", "lengths": {"L": {name: {metric: value}, "ground_truth":
-    {"foot_slide": value}}}, "units": {...}}; see ``_units`` for the units of each metric.
+    {"foot_slide", "penetration", ...: value}}}, "units": {...}}; see ``_units`` for the units of each metric.
     """
     rotations_all = _as_f64(windows.rotations)
     positions_all = _as_f64(windows.positions)
@@ -388,7 +438,9 @@ def evaluate_protocol(
     gt_rot_all, gt_pos_all = forward_kinematics(rotations_all, positions_all, parents)
     ground_all = metrics.ground_heights(gt_pos_all, feet, up_axis)
     slide_kw = dict(feet=feet, metres_per_unit=metres_per_unit, up_axis=up_axis)
-    truth = _Truth(parents, gt_rot_all, gt_pos_all, ground_all, mean, std, slide_kw)
+    fps = float(getattr(windows, "fps", 0.0) or 30.0)
+    contact_kw = dict(slide_kw, toes=tuple(feet)[1::2], swing_speed_cm_per_frame=metrics.SWING_SPEED_CM_PER_S / fps)
+    truth = _Truth(parents, gt_rot_all, gt_pos_all, ground_all, mean, std, slide_kw, contact_kw)
 
     chunks = [slice(i, min(i + batch_size, num_windows)) for i in range(0, num_windows, batch_size)]
     bar = _progress_bar(len(lengths) * len(chunks) * len(methods)) if progress else None

@@ -4,7 +4,9 @@ Two families (docs/design.md §4 and §6):
 
 * the official LAFAN1 benchmark metrics ``l2q``, ``l2p`` and ``npss``, reproduced exactly
   (same normalisation, same axes, same weighting as the reference implementation);
-* the paper's metrics ``ade``, ``ade_best``, ``slde``, ``apd`` and ``foot_slide``.
+* the paper's metrics ``ade``, ``ade_best``, ``slde``, ``apd`` and ``foot_slide``;
+* ground contact: the feet's penetration below the window's ground and the toes' clearance in swing
+  (``ground_penetration_parts``, ``swing_clearance_parts``).
 
 Shape conventions: ``B`` windows, ``T`` scored frames, ``J`` joints, ``S`` samples per window.
 Positions are in the data's units (LAFAN1: centimetres); ``metres_per_unit`` converts them
@@ -21,6 +23,10 @@ from stitchjax import windows
 
 LAFAN1_METRES_PER_UNIT = 0.01
 FOOT_HEIGHT_THRESHOLD_CM = windows.FOOT_HEIGHT_THRESHOLD_CM
+# A toe moving over the ground faster than this is in swing (60 cm/s = 2 cm/frame at 30 fps): a planted toe
+# moves < 1 cm/frame. Chosen by hand, not tuned on any data split.
+SWING_SPEED_CM_PER_S = 60.0
+SWING_MIN_STEPS = 2  # a swing lasts at least 2 frame steps: a one-step jump (e.g. onto a keyframe) is not one
 
 
 def _f64(x) -> np.ndarray:
@@ -251,3 +257,64 @@ def foot_slide(global_positions, ground, feet, metres_per_unit: float = LAFAN1_M
     weighted, count = foot_slide_parts(global_positions, ground, feet, metres_per_unit, height_threshold_cm, up_axis)
     total = float(np.sum(count))
     return float(np.sum(weighted)) / total if total > 0 else 0.0
+
+
+# ------------------------------------------------------------------------------------------ ground contact
+# "The window's ground" is :func:`ground_heights`: the lowest height any ground-truth foot joint (ankles and
+# toes) reaches anywhere in the window, i.e. the floor as the data's own feet touch it there (a planted toe
+# joint sits a few cm above the modelled floor; a window on a raised floor has that floor). Foot slide uses
+# the same ground. Heights below are measured along the up axis from it, in cm.
+
+
+def ground_penetration_parts(global_positions, ground, feet, metres_per_unit: float = LAFAN1_METRES_PER_UNIT,
+                             up_axis: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Pieces of the feet's penetration below the window's ground, per window.
+
+    global_positions: (..., B, T, J, 3) data units; ground: (B,) the window's ground (:func:`ground_heights`,
+    data units); feet: the foot joints (ankles and toes). Depth of a foot joint in a frame: how far (cm) it is
+    below the ground, 0 when above. Returns (sum of depths (cm), joint-frames below, joint-frames, deepest
+    depth (cm)), each (..., B). Pooled: mean depth of those below = sum / below; share below = below / all.
+    The ground truth's depth is 0 by construction (its lowest foot joint is the ground).
+    """
+    x = _f64(global_positions)[..., list(feet), up_axis]  # (..., B, T, F)
+    depth_cm = np.maximum(_f64(ground)[:, None, None] - x, 0.0) * (metres_per_unit * 100.0)
+    below = depth_cm > 0.0
+    total = np.full(depth_cm.shape[:-2], float(depth_cm.shape[-2] * depth_cm.shape[-1]))
+    return (depth_cm.sum(axis=(-2, -1)), below.sum(axis=(-2, -1)).astype(np.float64), total,
+            depth_cm.max(axis=(-2, -1), initial=0.0))
+
+
+def swing_clearance_parts(global_positions, ground, toes, swing_speed_cm_per_frame: float,
+                          metres_per_unit: float = LAFAN1_METRES_PER_UNIT, up_axis: int = 1,
+                          min_steps: int = SWING_MIN_STEPS) -> tuple[np.ndarray, np.ndarray]:
+    """Pieces of the toes' clearance in swing, per window: (sum over swings of each swing's highest toe
+    height above the window's ground (cm), number of swings), each (..., B).
+
+    global_positions: (..., B, T, J, 3) data units; ground: (B,) (:func:`ground_heights`); toes: toe joints.
+    A swing of a toe is a run of at least ``min_steps`` consecutive frame steps in which it moves over the
+    ground (horizontally) faster than ``swing_speed_cm_per_frame`` (:data:`SWING_SPEED_CM_PER_S` / fps); its
+    clearance is the
+    highest the toe gets above the ground over the frames of the run. A foot that slides instead of lifting
+    makes swings with low clearance. Runs cut by the ends of the frames given count as swings.
+    """
+    x = _f64(global_positions)[..., list(toes), :]  # (..., B, T, F, 3)
+    cm = metres_per_unit * 100.0
+    horizontal = [a for a in range(3) if a != up_axis]
+    step = np.linalg.norm(np.diff(x[..., horizontal], axis=-3), axis=-1) * cm  # (..., B, T-1, F)
+    height = (x[..., up_axis] - _f64(ground)[:, None, None]) * cm  # (..., B, T, F)
+    moving = step > float(swing_speed_cm_per_frame)
+    total = np.zeros(moving.shape[:-2] + moving.shape[-1:])  # (..., B, F)
+    count = np.zeros_like(total)
+    peak = np.full_like(total, -np.inf)
+    run = np.zeros_like(total)  # steps in the current run
+    steps = moving.shape[-2]
+    for t in range(steps):
+        now = moving[..., t, :]
+        peak = np.where(now, np.maximum(peak, np.maximum(height[..., t, :], height[..., t + 1, :])), peak)
+        run = np.where(now, run + 1, 0)
+        ends = now & (~moving[..., t + 1, :] if t + 1 < steps else True)
+        counted = ends & (run >= min_steps)
+        total += np.where(counted, peak, 0.0)
+        count += counted
+        peak = np.where(ends, -np.inf, peak)
+    return total.sum(axis=-1), count.sum(axis=-1)

@@ -2,7 +2,7 @@
 (``evaluate.benchmark_baselines``) and the paper's protocol (``evaluate.evaluate_protocol``).
 
 One row per (length, method), one column per metric with its unit in the header, the ground truth's foot
-slide as its own row, and a units legend below (``bin/evaluate`` prints these).
+slide and ground contact (penetration, toe clearance) as its own row, and a units legend below (``bin/evaluate`` prints these).
 """
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ def format_protocol_table(results: Mapping, title: str | None = None) -> str:
     """One row per (length, method), one column per metric, units in the header (4 decimals), a units
     legend below. ``results``: as :func:`evaluate_protocol` or :func:`benchmark_baselines` return them."""
     units = results.get("units", {})
-    short = {"m": "m", "cm/frame": "cm/f", "cm": "cm"}
+    short = {"m": "m", "cm/frame": "cm/f", "cm": "cm", "fraction": "frac"}
     cols = [(k, f"{k} ({short.get(units.get(k, '').split(' ')[0], '-')})") for k in evaluate.METRIC_KEYS if k in _first_row(results)]
     settings = results.get("settings", {})
     width = max([12] + [len(n) for n in settings])
@@ -45,16 +45,19 @@ def format_protocol_table(results: Mapping, title: str | None = None) -> str:
                 continue
             lines.append(
                 f"{length:>3} {name:<{width}} {settings.get(name, ''):<{setting_width}}"
-                + "".join(f" {values.get(k, float('nan')):>15.4f}" for k, _ in cols)
+                + "".join(_cell(values.get(k, float("nan"))) for k, _ in cols)
             )
         gt = entry.get("ground_truth", {})
-        if "foot_slide" in gt:
-            cells = "".join(
-                f" {gt['foot_slide']:>15.4f}" if k == "foot_slide" else f" {'':>15}" for k, _ in cols
-            )
+        if any(k in gt for k, _ in cols):  # foot slide and ground contact of the ground truth
+            cells = "".join(_cell(gt[k]) if k in gt else f" {'':>15}" for k, _ in cols)
             lines.append(f"{length:>3} {'ground_truth':<{width}} {'':<{setting_width}}" + cells)
     lines.append("units: " + "; ".join(f"{k} {units[k]}" for k, _ in cols if k in units))
     return "\n".join(lines)
+
+
+def _cell(value) -> str:
+    """One table cell: 4 decimals, "-" for a figure that does not exist (None, e.g. no toe swing)."""
+    return f" {'-':>15}" if value is None else f" {value:>15.4f}"
 
 
 def _first_row(results: Mapping) -> dict:

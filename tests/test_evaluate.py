@@ -96,6 +96,35 @@ def test_protocol_schema_and_perfect_method(sample):
     assert f"{out['lengths']['50']['zerov']['ade']:.4f}" in row
 
 
+def _sunk_method(windows, start, length, num_samples, seed):
+    """Ground truth 5 cm lower: its feet go below the ground, its toes swing 5 cm lower."""
+    r, p = _ground_truth_method(windows, start, length, num_samples, seed)
+    p = p.copy()
+    p[..., 0, 1] -= 5.0
+    return r, p
+
+
+def test_protocol_measures_ground_contact(sample):
+    stats, windows = sample
+    methods = {"model": _ground_truth_method, "sunk": _sunk_method, **evaluate.BASELINE_METHODS}
+    out = evaluate.evaluate_protocol(methods, windows[:8], stats, lengths=(30,), samples=1, progress=False)
+    entry = out["lengths"]["30"]
+    truth = entry["ground_truth"]
+    assert set(evaluate.CONTACT_KEYS) <= set(truth) and set(evaluate.CONTACT_KEYS) <= set(out["units"])
+    # the window's ground is its lowest ground-truth foot joint: the truth never goes below it
+    assert truth["penetration"] == 0.0 and truth["penetration_max"] == 0.0 and truth["penetration_share"] == 0.0
+    assert 3.0 < truth["toe_clearance"] < 40.0  # cm: toes lift in swing
+    for key in evaluate.CONTACT_KEYS:
+        assert entry["model"][key] == pytest.approx(truth[key])
+    sunk = entry["sunk"]
+    assert 0.0 < sunk["penetration"] <= sunk["penetration_max"] <= 5.0 + 1e-9 and 0.0 < sunk["penetration_share"] < 1.0
+    assert sunk["toe_clearance"] < truth["toe_clearance"]
+    table = tables.format_protocol_table(out)
+    assert "penetration (cm)" in table and "toe_clearance (cm)" in table
+    row = next(line for line in table.splitlines() if line.split()[:2] == ["30", "ground_truth"])
+    assert f"{truth['toe_clearance']:.4f}" in row and f"{truth['foot_slide']:.4f}" in row
+
+
 def test_protocol_diversity_and_best_of_n(sample):
     stats, windows = sample
     out = evaluate.evaluate_protocol({"noisy": _noisy_method}, windows[:5], stats, lengths=(10,),
@@ -175,3 +204,5 @@ def test_cli_model_baselines_only(tmp_path):
     assert results["samples"] == 2 and list(results["lengths"]) == ["10", "30"]
     assert set(results["lengths"]["30"]) == {"interp", "zerov", "ground_truth"}
     assert set(results["lengths"]["30"]["interp"]) == METRICS
+    truth = results["lengths"]["30"]["ground_truth"]
+    assert truth["penetration_share"] == 0.0 and truth["toe_clearance"] > 0.0

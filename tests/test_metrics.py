@@ -119,3 +119,19 @@ def test_foot_slide_counts_only_weighted_pairs():
     lifted = _sliding_foot(20.0, speed_cm=7.0)
     both = np.concatenate([x[:, :, :1], lifted[:, :, :1]], axis=2)
     assert metrics.foot_slide(both, np.array([5.0]), feet=(0, 1)) == pytest.approx(2.0)
+
+
+def test_ground_penetration_and_swing_clearance_on_a_made_up_toe():
+    """One toe (joint 0) planted, lifted to 10 cm while it moves 5 cm/frame, planted again; joint 1 still."""
+    g = np.zeros((1, 10, 2, 3))
+    g[0, :, 0, 0] = [0, 0, 5, 10, 15, 20, 20, 20, 20, 20]
+    g[0, :, 0, 1] = [0, 0, 4, 10, 6, 0, 0, 0, 0, 0]
+    clearance, swings = metrics.swing_clearance_parts(g, np.zeros(1), [0], swing_speed_cm_per_frame=2.0)
+    assert swings[0] == 1 and clearance[0] == 10.0  # one swing, highest at 10 cm
+    one_step = g.copy()
+    one_step[0, :, 0, 0] = [0, 0, 0, 0, 0, 9, 9, 9, 9, 9]  # a single jump is no swing
+    assert metrics.swing_clearance_parts(one_step, np.zeros(1), [0], 2.0)[1][0] == 0
+    sunk = g - np.array([0.0, 3.0, 0.0])  # 3 cm lower: joint 1 below on all 10 frames, joint 0 on 7
+    depth, below, total, deepest = metrics.ground_penetration_parts(sunk, np.zeros(1), [0, 1])
+    assert (depth[0], below[0], total[0], deepest[0]) == (51.0, 17.0, 20.0, 3.0)
+    assert metrics.ground_penetration_parts(g, np.zeros(1), [0, 1])[1][0] == 0
