@@ -206,3 +206,36 @@ def test_cli_model_baselines_only(tmp_path):
     assert set(results["lengths"]["30"]["interp"]) == METRICS
     truth = results["lengths"]["30"]["ground_truth"]
     assert truth["penetration_share"] == 0.0 and truth["toe_clearance"] > 0.0
+
+
+@pytest.mark.slow
+def test_cli_model_evaluates_a_bvh_folder_model_on_its_test_files(shared_data, tmp_path):
+    """A 40-step `cmu` model (data.dataset=bvh_folder, every file trains) evaluated on the CMU take with the
+    protocol and the baselines: --dataset comes from the model, the test files from --test-files."""
+    from stitchjax import config as config_lib, train
+
+    tiny = ["model.encoder_widths=16,16,16", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
+            "model.gating_widths=8,8", "model.disc_widths=16,16", "phase.hidden_dim=16", "phase.steps=20",
+            "train.log_every=10"]
+    config = config_lib.apply_overrides(config_lib.load_config("cmu"), tiny)
+    run = tmp_path / "cmu"
+    train.train(config, run, data_dir=shared_data / "cmu", max_steps=40, config_name="cmu", progress=False)
+    from stitchjax import takes, trained_model
+
+    limit, source = takes.root_speed_limit(trained_model.load_model(run))  # saved at training time
+    assert 30.0 < limit < 1000.0 and "training data" in source  # cm/s
+    out = tmp_path / "cmu.json"
+    args = ["model", "--checkpoint", str(run), "--data", str(shared_data / "cmu"), "--samples", "2",
+            "--lengths", "10,30", "--noise-scales", "", "--json", str(out)]
+    refused = _run_cli(*args[:-2])
+    assert refused.returncode == 2 and "--test-files" in refused.stderr  # no data.test_files in the config
+    proc = _run_cli(*args, "--test-files", "01_01.bvh")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    results = json.loads(out.read_text())
+    assert results["n_windows"] == 16  # 2752 frames at 120 fps = 688 at 30: windows of 65 every 40
+    for length in ("10", "30"):
+        entry = results["lengths"][length]
+        assert set(entry) == {"model", "interp", "zerov", "ground_truth"}
+        assert set(entry["model"]) == METRICS and all(np.isfinite(entry["model"][k]) for k in ("ade", "npss", "apd"))
+        assert entry["model"]["apd"] > 0 and entry["ground_truth"]["penetration_share"] == 0.0
+    assert "ground_truth" in proc.stdout and "toe_clearance" in proc.stdout
