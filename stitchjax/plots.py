@@ -371,13 +371,16 @@ def error_over_time(errors: Mapping[str, Sequence[float]], *, first_frame: int =
 
 def animate(motions, parents, path, *, fps: float = 30.0, keyframes: Sequence[int] | None = None,
             transition: tuple | None = None, titles: Sequence[str] | None = None, view="auto",
-            cmap: str = DEFAULT_CMAP, height: float = 2.6,
+            cmap: str = DEFAULT_CMAP, height: float = 3.6,
             dpi: int = 80):
     """Write an animated GIF (Pillow writer) of motions playing side by side, one panel each.
 
     motions: list of (T, J, 3) global positions, same T. The figure at a keyframe is black, during the
-    transition it takes the frame's colour map colour, elsewhere grey. The root's real motion is kept
-    (each panel follows its own character with a fixed camera). Returns the path written.
+    transition it takes the frame's colour map colour, elsewhere grey. Each panel is square and shows the
+    body at about 70 % of its height (``height`` inches at ``dpi``: 288 px, a figure ~210 px tall by
+    default); a character that travels further than half its height is followed by the camera, and marks on
+    the ground every quarter of the body's height scroll past, so root travel and foot sliding show.
+    Returns the path written.
     """
     from matplotlib.animation import FuncAnimation, PillowWriter
 
@@ -388,26 +391,36 @@ def animate(motions, parents, path, *, fps: float = 30.0, keyframes: Sequence[in
         transition = (min(keyframes), max(keyframes))
     colors = frame_colors(num_frames, keyframes, transition, cmap)
     axis = horizontal_axis(motions, view)
-    fig = _new_figure((height * 0.8 * len(motions), height), dpi)
+    fig = _new_figure((height * 0.9 * len(motions), height), dpi)
     axes = fig.subplots(1, len(motions), squeeze=False)[0]
     ymin = min(float(m[..., 1].min()) for m in motions)
     ymax = max(float(m[..., 1].max()) for m in motions)
+    body = max(ymax - ymin, 1e-6)
+    half = 0.6 * body  # half the visible width: a square view of the body with a margin
     artists = []
     for i, (ax, m) in enumerate(zip(axes, motions)):
         screen = project(m, axis)
-        _frame_axes(ax, screen[..., 0].min(), screen[..., 0].max(), ymin, ymax)
+        root = screen[:, 0, 0]
+        follow = root.max() - root.min() > 0.5 * body
+        centres = root if follow else np.full(num_frames, 0.5 * (screen[..., 0].min() + screen[..., 0].max()))
+        _frame_axes(ax, centres[0] - half, centres[0] + half, ymin, ymax)
+        ax.set_xlim(centres[0] - half, centres[0] + half)
         ax.axhline(ymin, color="0.85", linewidth=0.8)
+        step = 0.25 * body
+        for x in np.arange(np.floor((root.min() - 2 * half) / step), np.ceil((root.max() + 2 * half) / step) + 1) * step:
+            ax.plot([x, x], [ymin - 0.03 * body, ymin], color="0.7", linewidth=0.8)
         lines = draw_skeleton(ax, m[0], parents, axis=axis, color=colors[0], linewidth=1.8)
         if titles is not None and i < len(titles):
             ax.set_title(str(titles[i]), fontsize=8)
-        artists.append((screen, lines))
+        artists.append((ax, screen, lines, centres))
     counter = fig.text(0.01, 0.01, "", fontsize=7)
     bones = [(p, j) for j, p in enumerate(parents) if p >= 0]
     fig.subplots_adjust(left=0.01, right=0.99, bottom=0.05, top=0.9, wspace=0.05)
 
     def update(t):
         changed = [counter]
-        for screen, lines in artists:
+        for ax, screen, lines, centres in artists:
+            ax.set_xlim(centres[t] - half, centres[t] + half)
             for line, (p, j) in zip(lines, bones):
                 line.set_data(screen[t, [p, j], 0], screen[t, [p, j], 1])
                 line.set_color(colors[t])
@@ -429,7 +442,9 @@ def loss_curves(records: Sequence[Mapping[str, float]], *, dpi: int = 90, path=N
     """One panel per loss term against step, four panels a row (3.6 x 2.4 inches each).
 
     records: the metrics.jsonl records (dicts with "step" and the logged terms). Per-direction /
-    per-discriminator parts ("fk_forward", "adv_d_short", ...) share their term's panel.
+    per-discriminator parts ("fk_forward", "adv_d_short", ...) share their term's panel. Order: the total
+    generator loss ("loss") first, the discriminator's second, the other terms as logged, then the
+    validation figures (val_*), each beside interpolation's on the same windows where it was logged.
     """
     skip = {"step", "windows_per_s", "time_s", "epoch", "val_s"}
     suffixes = ("_forward", "_backward", "_short", "_long", "_interp")
@@ -438,6 +453,9 @@ def loss_curves(records: Sequence[Mapping[str, float]], *, dpi: int = 90, path=N
     for n in names:
         if n not in panels:
             panels[n.rsplit("_", 1)[0]].append(n)
+    first = [n for n in ("loss", "disc_loss") if n in panels]
+    panels = {n: panels[n] for n in first + [n for n in panels if n not in first and not n.startswith("val_")]
+              + [n for n in panels if n.startswith("val_")]}
     cols = 4
     rows = max(1, math.ceil(len(panels) / cols))
     fig = _new_figure((3.6 * cols, 2.4 * rows), 100)  # laid out at 100 dpi (matplotlib's default), drawn at `dpi`
@@ -449,7 +467,8 @@ def loss_curves(records: Sequence[Mapping[str, float]], *, dpi: int = 90, path=N
     for ax, (name, parts) in zip(axes.flat, panels.items()):
         ax.plot(*curve(name), lw=1.4, label=name, marker="." if name.startswith("val_") else None)
         for part in parts:
-            ax.plot(*curve(part), lw=0.8, alpha=0.7, label=part)
+            label = "interpolation" if part.endswith("_interp") else part
+            ax.plot(*curve(part), lw=0.8, alpha=0.7, label=label, ls="--" if part.endswith("_interp") else "-")
         if parts:
             ax.legend(fontsize=6)
         ax.set_title(name, fontsize=9)

@@ -42,13 +42,24 @@ def read_metrics(path: str | os.PathLike) -> list[dict]:
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
+# configs that show the pipeline working end to end, not models to evaluate: their reports say so
+SMOKE_TEST_CONFIGS = ("quickstart", "tiny")
+
+
 def write_report(workdir: pathlib.Path, config_name: str, records: list[dict], summary: dict) -> None:
-    """WORKDIR/report.md: steps, time, throughput, first and final value of every logged term.
+    """WORKDIR/report.md: steps, time, throughput, first and final value of every logged term; a smoke
+    test's (a config of :data:`SMOKE_TEST_CONFIGS`) says so under the title.
 
     summary: the dict `train.train` returns (step, start_step, steps_run, setup_s, wall_s, compile_s in
     seconds, windows_per_s, devices, num_windows, batch_size, length, stop_reason, log_every).
     """
-    lines = [f"# Training report: {config_name}", "",
+    lines = [f"# Training report: {config_name}", ""]
+    if pathlib.Path(str(config_name)).stem in SMOKE_TEST_CONFIGS:
+        lines += [f"**Smoke test.** The `{pathlib.Path(str(config_name)).stem}` config is a small model trained "
+                  "briefly to show the pipeline working end to end (losses fall, checkpoints, this report); it "
+                  "is not a model to evaluate or to draw conclusions from. For results train `lafan1_cpu` "
+                  "(a 2-core CPU) or `lafan1` (a GPU) on the LAFAN1 files.", ""]
+    lines += [
              f"- steps: {summary['step']} (this invocation: {summary['steps_run']}, "
              f"started at step {summary['start_step']})",
              f"- wall time (this invocation): {summary['setup_s']:.1f} s setup (data, phase pretraining, "

@@ -107,3 +107,42 @@ def test_loss_curves_one_panel_per_term_parts_shared(tmp_path):
     assert [ax.get_title() for ax in drawn] == ["loss", "fk", "length"]
     assert len(drawn[1].get_lines()) == 3  # fk with its forward and backward parts
     assert imread(path).shape[:2] == (216, 1296)  # one row of four 3.6 x 2.4 inch panels at 90 dpi
+
+
+def test_loss_curves_total_loss_first_and_validation_beside_interpolation():
+    records = [{"step": s, "adv_d": 1.0, "contact": 2.0 / s, "disc_loss": 0.5, "loss": 10.0 / s} for s in (1, 2, 3)]
+    records += [{"step": 3, "val_ade_L30": 0.2, "val_ade_L30_interp": 0.25}]
+    fig = plots.loss_curves(records)
+    drawn = [ax for ax in fig.axes if ax.axison]
+    assert [ax.get_title() for ax in drawn] == ["loss", "disc_loss", "adv_d", "contact", "val_ade_L30"]
+    labels = [line.get_label() for line in drawn[-1].get_lines()]
+    assert labels == ["val_ade_L30", "interpolation"]
+
+
+def test_report_says_when_a_model_is_a_smoke_test(tmp_path):
+    from stitchjax import reporting
+
+    summary = dict(step=5, steps_run=5, start_step=0, setup_s=1.0, wall_s=2.0, compile_s=1.0, windows_per_s=3.0,
+                   devices="1 x cpu", num_windows=10, batch_size=4, length=5, stop_reason="reached max_steps",
+                   log_every=1)
+    for name, smoke in (("quickstart", True), ("configs/tiny.py", True), ("lafan1_cpu", False)):
+        reporting.write_report(tmp_path, name, [{"step": 5, "loss": 1.0}], summary)
+        assert ("Smoke test" in (tmp_path / "report.md").read_text()) == smoke
+
+
+def test_gif_figures_are_readable_and_followed_as_they_travel(tmp_path):
+    from PIL import Image
+
+    walk = _walk(num_frames=30)  # travels 145 cm, more than the figure's height
+    path = plots.animate([walk, walk], LAFAN1_PARENTS, tmp_path / "w.gif", fps=30, keyframes=(0, 29))
+    image = Image.open(path)
+    assert image.n_frames == 30
+    tallest = 0
+    for frame in (0, 15, 29):  # keyframes black, the transition coloured: both much darker than the ground
+        image.seek(frame)
+        pixels = np.asarray(image.convert("L"))
+        pixels = pixels[: int(0.95 * pixels.shape[0])]  # above the frame counter
+        rows = np.flatnonzero((pixels < 150).sum(axis=1) > 0)
+        tallest = max(tallest, rows.max() - rows.min() + 1)
+        assert (pixels[:, : pixels.shape[1] // 2] < 150).any()  # the character stays in view (left panel)
+    assert tallest >= 200  # pixels
