@@ -280,3 +280,22 @@ def test_cmu_take_at_120_fps_keeps_its_frame_numbers_rate_and_count(shared_data)
         np.testing.assert_allclose(motion.positions[keep], cmu.positions[keep], rtol=0, atol=1e-9)  # units x 5.6444 and back
         gap = motion.positions[401:441, 0]
         assert np.all(np.isfinite(gap)) and np.abs(gap - cmu.positions[401:441, 0]).max() > 1e-3  # generated
+
+
+def test_cli_filmstrip_shows_root_travel_and_names_the_model(tiny_run, tmp_path, capsys, monkeypatch):
+    from stitchjax import plots
+
+    calls = []
+    original = plots.filmstrip
+
+    def recording(*args, **kwargs):
+        calls.append(kwargs)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(plots, "filmstrip", recording)
+    source = sample.sample_files(["subject5"])[0]
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame",
+                       100 + LENGTH + 1, "--samples", SAMPLES, "--out", tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert len(calls) == 1 and calls[0]["travel"] is True  # figures where their roots are
+    assert f"({tiny_run.name} step 0)" in calls[0]["title"]  # the run's name, not the config's
