@@ -255,8 +255,9 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
     # room for the row titles: about 0.065 inch per character at font size 8
     label_w = max(0.7, 0.15 + 0.065 * max(len(str(t)) for t in titles)) if titles else 0.1
     title_h = 0.3 if title else 0.0
-    if figsize is None:  # rows of row_height inches, width following the data's aspect
-        figsize = (label_w + 0.1 + row_height * data_w / data_h, row_height * len(motions) + title_h)
+    if figsize is None:  # rows of row_height inches, width following the data's aspect (and the title's)
+        figsize = (max(label_w + 0.1 + row_height * data_w / data_h, 0.3 + 0.07 * len(title or "")),
+                   row_height * len(motions) + title_h)
     fig = _new_figure(figsize, dpi)
     fig_w, fig_h = fig.get_size_inches()
     row_h = (fig_h - title_h) / len(motions)
