@@ -137,7 +137,8 @@ def test_cmu_model_samples_a_transition_from_the_cmu_file_ending_on_the_target(c
     assert model.joint_names == take.skeleton.names and model.feet_names == tuple(CMU_FEET)
     assert model.forward_axis == (0.0, 0.0, 1.0) and model.unit_scale == 5.6444
     out = takes.inbetween_takes(model, take, 40, take, 68, num_samples=2, output="transition")
-    assert [m.num_frames for m in out] == [8, 8] and out[0].fps == 30.0  # 28 frames at 120 fps: 6 generated
+    assert takes.model_length(model, take.fps, 68 - 40 - 1) == 6  # 28 frame steps at 120 fps: 6 frames at 30
+    assert [m.num_frames for m in out] == [29, 29] and out[0].fps == 120.0  # resampled back to the file's rate
     for m in out:  # in the file's units again, on the keyframes to float64 rounding
         np.testing.assert_allclose(m.positions[[0, -1]], take.positions[[40, 68]], rtol=0, atol=1e-9)
         np.testing.assert_allclose(m.rotations[[0, -1]], take.rotations[[40, 68]], rtol=0, atol=1e-12)
