@@ -172,8 +172,8 @@ def _placed_target(model: Model, start_take: Motion, start_frame: int, target_ta
     """The target take (model terms, its own frame rate) turned by ``turn_degrees`` about its keyframe's
     root and moved so that its keyframe's root lies ``offset`` (the takes' units and axes, before ``scale``)
     from the start keyframe's root (``offset_from="start"``; horizontally, the height offset as given) or
-    from where its own file has it (``"file"``). Unmoved: the start take's own target keyframe with no offset
-    and no turn, or ``"file"`` with neither."""
+    from where its own file has it (``"file"``). A target keyframe of the start take itself with no offset stays
+    where it is (turned about its root, if asked); unmoved with ``"file"`` and neither."""
     try:
         offset = np.asarray(offset, np.float64)
         if offset.shape != (3,):
@@ -182,7 +182,7 @@ def _placed_target(model: Model, start_take: Motion, start_frame: int, target_ta
         if not moved and (same or offset_from == "file"):
             return target_take
         shift = R.quat_rotate(conform.up_turn(model.up_axis), offset) * scale * model.unit_scale  # +Y up, cm
-        if offset_from == "start":
+        if offset_from == "start" and (np.any(offset != 0) or not same):  # the take's own target: only turned
             gap = start_take.positions[start_frame, 0] - target_take.positions[target_frame, 0]
             shift = shift + np.array([gap[0], 0.0, gap[2]])
         return conform.place(target_take, shift, turn_degrees, pivot=int(target_frame))
@@ -214,9 +214,9 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     and moved so its keyframe's root lies ``offset`` (x, y, z; the takes' own units and axes, before
     ``scale``) from the start keyframe's root (``offset_from="start"``, the default: horizontally, the height
     as given) or from where its own file has it (``"file"``); a target keyframe of the start take itself
-    with no offset and no turn stays where it is. Both are resampled to the model's frame rate anchored at
-    their keyframes (kept exactly), and a transition whose mean root speed would exceed the training data's
-    (:func:`check_root_speed`) is refused unless ``allow_fast``.
+    with no offset stays where it is (turned about its root, if asked). Both are resampled to the model's
+    frame rate anchored at their keyframes (kept exactly), and a transition whose mean root speed would
+    exceed the training data's (:func:`check_root_speed`) is refused unless ``allow_fast``.
     length: frames between the keyframes in the output, counted at the start take's frame rate (default:
       the frames between them when both come from one take; required otherwise). The model generates
       :func:`model_length` frames at its own rate for the same duration; at another rate than the take's
