@@ -299,3 +299,19 @@ def test_cli_filmstrip_shows_root_travel_and_names_the_model(tiny_run, tmp_path,
     assert result.returncode == 0, result.stderr
     assert len(calls) == 1 and calls[0]["travel"] is True  # figures where their roots are
     assert f"({tiny_run.name} step 0)" in calls[0]["title"]  # the run's name, not the config's
+
+
+def test_cli_120_fps_take_written_at_its_rate_with_the_generated_count_stated(tiny_run, take, tmp_path, capsys):
+    fast, _ = conform.resample(take[80:140], 120.0, 20)
+    source = tmp_path / "fast.bvh"
+    bvh.save(source, fast)
+    fast = bvh.load(source)  # as written (6 decimals)
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 80, "--end-frame", 116,
+                       "--samples", 2, "--out", tmp_path / "o")
+    assert result.returncode == 0, result.stderr
+    assert "the model generates 8 frames at its 30 fps for the 35 frames between the keyframes" in result.stderr
+    written = bvh.load(tmp_path / "o" / "fast_sample0.bvh")
+    assert written.fps == 120.0 and written.num_frames == fast.num_frames
+    g, want = written.global_positions(), fast.global_positions()
+    np.testing.assert_allclose(g[[80, 116]], want[[80, 116]], atol=1e-4)  # the keyframes, as the file has them
+    np.testing.assert_allclose(g[:80], want[:80], atol=1e-4)
