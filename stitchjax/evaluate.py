@@ -183,7 +183,7 @@ BASELINE_METHODS: dict[str, Callable] = {"interp": interpolation_method, "zerov"
 
 
 def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correlation: float | None = None,
-                 noise_ramp_steps: int = 0):
+                 noise_ramp_steps: int = 0, foot_lock=False):
     """The model as a ``Method``:
     ``method(windows, start, length, num_samples, seed) -> (rotations (S, B, L, J, 4), positions (S, B, L, J, 3))``.
 
@@ -194,6 +194,8 @@ def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correla
     its correlation from frame to frame (``rollout.correlated_noise``; 0: independent, the paper's; None:
     the model's ``model.noise_correlation``);
     noise_ramp_steps: its ramp from each keyframe (``rollout.noise_ramp``; 0: none, the paper's).
+    foot_lock: plant the feet after sampling (:mod:`stitchjax.footlock`; True or a ``FootLockConfig``); the
+    method's ``foot_lock_counts`` dict then adds up its planted, let-go and changed leg-frames.
     """
     if not isinstance(model, Model):
         model = load_model(model)
@@ -209,11 +211,12 @@ def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correla
         rotations, positions, _ = inbetween.transitions_in_frame(
             model, rot[:, start], pos[:, start], contacts[:, start], rot[:, target], pos[:, target],
             contacts[:, target], length, num_samples, seed, search, noise_scale, noise_correlation,
-            noise_ramp_steps)
+            noise_ramp_steps, foot_lock=foot_lock, foot_lock_counts=method.foot_lock_counts)
         # (B, S, L+2, ...) -> generated frames, samples first: (S, B, L, ...)
         return (np.swapaxes(rotations[:, :, 1:-1], 0, 1), np.swapaxes(positions[:, :, 1:-1], 0, 1))
 
     method.model = model
+    method.foot_lock_counts = {}
     return method
 
 

@@ -211,13 +211,16 @@ def _check_skeleton(model: Model, skeleton):
 def transitions_in_frame(model: Model, start_rotations, start_positions, start_contacts, target_rotations,
                          target_positions, target_contacts, length: int, num_samples: int, seed=0,
                          search: int = 0, noise_scale: float = 1.0, noise_correlation: float | None = None,
-                         noise_ramp_steps: int = 0):
+                         noise_ramp_steps: int = 0, foot_lock=False, foot_lock_counts: dict | None = None):
     """Transitions between B keyframe pairs given in any world frame, returned in that frame.
 
     Keyframes: local rotations (B, J, 4), local positions (B, J, 3) (root = world position, others
     = bone offsets), contacts (B, C). Returns (rotations (B, S, L+2, J, 4), positions (B, S, L+2, J, 3),
     stitch_loss (B, S)) float64: frame 0 and L+1 are the input keyframes exactly; non-root local
     positions are the start keyframe's bone offsets.
+    foot_lock: False, True (``footlock.DEFAULT_CONFIG``) or a ``footlock.FootLockConfig``: plant the feet
+    with the predicted contacts (:func:`stitchjax.footlock.lock_feet`, in the input's frame, +Y up).
+    foot_lock_counts: a dict to which the pass adds "leg_frames", "planted", "let_go" and "changed" counts.
     """
     sr, sp = np.asarray(start_rotations, np.float64), np.asarray(start_positions, np.float64)
     tr, tp = np.asarray(target_rotations, np.float64), np.asarray(target_positions, np.float64)
@@ -248,7 +251,26 @@ def transitions_in_frame(model: Model, start_rotations, start_positions, start_c
     positions[..., 0, :] = roots
     positions[:, :, 0] = sp[:, None]
     positions[:, :, -1] = tp[:, None]
+    if foot_lock is not False and foot_lock is not None:
+        rotations = _locked(model, rotations, positions, out["contacts"], foot_lock, foot_lock_counts)
     return rotations, positions, out["stitch_loss"].astype(np.float64)
+
+
+def _locked(model: Model, rotations, positions, contacts, config, counts: dict | None):
+    """``footlock.lock_transitions`` of (B, S, T, ...) transitions on the model's skeleton; the counts of
+    planted, let-go and changed leg-frames (generated frames only) added to ``counts``."""
+    from stitchjax import footlock, skeleton as skeleton_lib
+
+    config = footlock.DEFAULT_CONFIG if config is True else config
+    names = model.joint_names or tuple(f"joint{j}" for j in range(model.num_joints))
+    skeleton = skeleton_lib.Skeleton(names, model.parents, positions[0, 0, 0])
+    locked, _, stats = footlock.lock_transitions(rotations, positions, contacts, skeleton, model.feet, config)
+    if counts is not None:
+        inner = stats["planted"][..., 1:-1, :]
+        counts["leg_frames"] = counts.get("leg_frames", 0) + int(inner.size)
+        for key in ("planted", "let_go", "changed"):
+            counts[key] = counts.get(key, 0) + int(stats[key][..., 1:-1, :].sum())
+    return locked
 
 
 # ------------------------------------------------------------------------------------------ Motion API
@@ -265,7 +287,7 @@ def _keyframe(motion: Motion, which: str):
 def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samples: int = 1, seed=0,
               search: int = 0, start_contacts=None, target_contacts=None, allow_extrapolation: bool = False, *,
               noise_scale: float = 1.0, noise_ramp_steps: int = 0,
-              noise_correlation: float | None = None) -> list:
+              noise_correlation: float | None = None, foot_lock=False) -> list:
     """Generate ``num_samples`` transitions of ``length`` frames from ``start`` to ``target``.
 
     model: a :class:`Model`, or None for the release model (``stitchjax.pretrained()``).
@@ -281,6 +303,8 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
       frames (0: full from the first frame, the paper's sampling; ``rollout.noise_ramp``);
     noise_correlation: the noise's correlation from one frame to the next (None: the model's
       ``model.noise_correlation``; 0: independent per frame, the paper's; ``rollout.correlated_noise``).
+    foot_lock: plant the feet where the model predicts contact (:mod:`stitchjax.footlock`; True, False or a
+      ``FootLockConfig``); the keyframes stay exact either way.
     The keyframes must be on the model's skeleton, frame rate and units (see
     :func:`stitchjax.takes.inbetween_takes`, which brings takes from anywhere onto them).
     Returns a list of ``num_samples`` Motions of L + 2 frames (start keyframe, L generated frames,
@@ -308,7 +332,7 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
         model, start.rotations[-1:], start.positions[-1:], np.asarray(start_contacts)[None],
         target.rotations[:1], target.positions[:1], np.asarray(target_contacts)[None], length, num_samples,
         seed, search, noise_scale=noise_scale, noise_correlation=noise_correlation,
-        noise_ramp_steps=noise_ramp_steps)
+        noise_ramp_steps=noise_ramp_steps, foot_lock=foot_lock)
     return [start.with_frames(rotations[0, s], positions[0, s]) for s in range(num_samples)]
 
 

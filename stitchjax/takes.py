@@ -203,7 +203,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
                     offset=(0.0, 0.0, 0.0), turn_degrees: float = 0.0, output: str = "appended",
                     scale: float = 1.0, allow_extrapolation: bool = False, noise_scale: float = 1.0,
                     noise_ramp_steps: int = 0, noise_correlation: float | None = None,
-                    offset_from: str = "start", allow_fast: bool = False) -> list:
+                    offset_from: str = "start", allow_fast: bool = False, foot_lock=False) -> list:
     """Transitions from frame ``start_frame`` of one take to frame ``target_frame`` of another (or the same).
     ``model``: a :class:`Model`, or None for the release model (``stitchjax.pretrained()``); the same in
     :func:`inbetween_clip`.
@@ -225,7 +225,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
       "appended" = the start take's frames 0..start_frame, the L generated frames and the target keyframe;
       "clip" = "appended" followed by the rest of the (placed) target take.
     noise_scale, noise_ramp_steps, noise_correlation: how far the samples spread
-    (:func:`stitchjax.inbetween.inbetween`).
+    (:func:`stitchjax.inbetween.inbetween`); foot_lock: plant the feet (:mod:`stitchjax.footlock`).
     Returns ``num_samples`` Motions at the start take's frame rate on the model's skeleton (the takes' own
     skeleton and channel layout when their joints already match), positions in the takes' units and axes
     (exact for cm, +Y-up models, else to float64 rounding); the takes' own frames, keyframes included, are
@@ -261,7 +261,8 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     target_contacts = _neighbour_contacts(model, target_m, b, +1)
     samples = inbetween(model, start_m[a], target_m[b], generated, num_samples, seed, search,
                         start_contacts, target_contacts, allow_extrapolation=True, noise_scale=noise_scale,
-                        noise_ramp_steps=noise_ramp_steps, noise_correlation=noise_correlation)
+                        noise_ramp_steps=noise_ramp_steps, noise_correlation=noise_correlation,
+                        foot_lock=foot_lock)
     # the target take at the start take's rate, its keyframe at index b_out
     target_out, b_out = _at_rate(target_take, take_fps, target_frame)
     a_out = int(start_frame)
@@ -281,7 +282,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
 def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: int, length: int | None = None,
                    num_samples: int = 1, seed=0, search: int = 0, allow_extrapolation: bool = False, *,
                    noise_scale: float = 1.0, noise_ramp_steps: int = 0,
-                   noise_correlation: float | None = None, allow_fast: bool = False) -> list:
+                   noise_correlation: float | None = None, allow_fast: bool = False, foot_lock=False) -> list:
     """Replace the frames between two keyframes of a take by generated transitions.
 
     Keyframes: ``motion`` frames ``start_frame`` (A) and ``end_frame`` (B), A < B. length: generated
@@ -295,7 +296,8 @@ def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: in
     count; :func:`model_length` says how many frames the model generates. Joints are
     mapped by name and the units checked as in :func:`inbetween_takes`. A length beyond the model's
     training lengths is refused unless ``allow_extrapolation``. noise_scale, noise_ramp_steps,
-    noise_correlation: how far the samples spread (:func:`stitchjax.inbetween.inbetween`).
+    noise_correlation: how far the samples spread (:func:`stitchjax.inbetween.inbetween`); foot_lock: plant
+    the feet (:mod:`stitchjax.footlock`).
     """
     if not isinstance(motion, Motion):
         raise InbetweenError(f"expected a stitchjax.bvh.Motion, got {type(motion).__name__}")
@@ -306,4 +308,4 @@ def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: in
     return inbetween_takes(model, motion, start_frame, motion, end_frame, length, num_samples, seed, search,
                            output="clip", allow_extrapolation=allow_extrapolation, noise_scale=noise_scale,
                            noise_ramp_steps=noise_ramp_steps, noise_correlation=noise_correlation,
-                           allow_fast=allow_fast)
+                           allow_fast=allow_fast, foot_lock=foot_lock)

@@ -1,0 +1,400 @@
+"""Foot locking: planted feet stay where they were put, solved on the legs with two-bone IK.
+
+A post-process over generated transitions (start keyframe, L generated frames, target keyframe):
+
+1. **Stance score** per leg and frame (:func:`stance_score`): the model's predicted contact times how close
+   the generated foot is to the ground and how slowly it moves (the model's contact outputs alone hardly
+   separate stance from swing, its feet rarely stop).
+2. **Spans** (:func:`hysteresis`, :func:`drop_short_spans`): the score switches a span on above ``enter``
+   and off below ``leave``; spans shorter than ``min_frames`` are dropped, so a flicker makes none.
+3. **Plant** (:func:`span_targets`): each span holds the foot (ankle position and foot orientation, so the
+   toe too) at one place: the foot at the span's first frame, or at the keyframe the span touches (a span
+   touching both keyframes goes from the one to the other). A plant is never below the ground level of
+   the keyframes' feet (the lowest ankle of both keyframes).
+4. **Out of reach** (:func:`reachable_spans`): from the first frame where the planted ankle is farther from
+   the hip than the leg is long, the foot is let go for the rest of its span (counted as let-go frames).
+5. **Blend** (:func:`blended_corrections`): the correction (ankle offset and foot turn) is eased out after
+   each span and in before the next one over up to ``blend_frames`` frames (smoothstep), and is zero at
+   both keyframes.
+6. **Leg solve** (:func:`two_bone_ik`): hip, knee and ankle turned so the ankle reaches its target; bones keep
+   their lengths exactly (only rotations change), the knee stays in the plane of the generated pose (pole
+   vector), and the reach is softened near full extension (``soft_reach``), so a leg is straightened, never
+   stretched, and never snaps straight.
+
+Frames that no span and no blend touches, both keyframes among them, are returned bit for bit as given.
+The root, the upper body and every joint's offset are unchanged; only the hip, knee and ankle rotations of
+each leg move. Positions in the data's units (LAFAN1: cm; the thresholds are in cm and cm/frame), +Y up by
+default (``FootLockConfig.up_axis``).
+
+    out = lock_feet(rotations, root_positions, contacts, skeleton)     # any leading batch shape, jit-able
+    out["rotations"], out["root_positions"], out["let_go"], out["planted"]
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from stitchjax import rotations as R
+from stitchjax.skeleton import Skeleton, forward_kinematics
+
+__all__ = ["FootLockConfig", "DEFAULT_CONFIG", "leg_chains", "stance_score", "hysteresis", "drop_short_spans",
+           "span_targets", "reachable_spans", "blended_corrections", "two_bone_ik", "lock_feet",
+           "lock_transitions"]
+
+FOOT_NAMES = ("LeftFoot", "LeftToe", "RightFoot", "RightToe")
+
+
+@dataclasses.dataclass(frozen=True)
+class FootLockConfig:
+    """Settings of the pass (hashable: a static argument of jit). Lengths in the data's units (cm).
+
+    contact_full: a predicted contact probability at or above this counts fully; below it scales the score.
+    height: the height factor of the score falls from 1 on the ground to 0 at this height (cm).
+    speed: the speed factor falls from 1 at rest to 0 at this horizontal foot speed (cm/frame).
+    enter, leave: hysteresis thresholds of the score (enter > leave).
+    min_frames: spans shorter than this are dropped.
+    blend_frames: frames over which a correction is eased out after a span (and in before one).
+    soft_reach: fraction of the leg's length from which the IK reach is softened (< 1).
+    leash: a span ends where the generated ankle has moved this far (cm, horizontally) from its plant, so
+      that no release has to make up more than this.
+    up_axis: the vertical axis of the positions.
+    """
+
+    contact_full: float = 0.2
+    height: float = 6.0
+    speed: float = 6.0
+    enter: float = 0.5
+    leave: float = 0.25
+    min_frames: int = 3
+    blend_frames: int = 12
+    soft_reach: float = 0.97
+    leash: float = 25.0
+    up_axis: int = 1
+
+    def __post_init__(self):
+        if not 0.0 <= self.leave <= self.enter:
+            raise ValueError(f"foot lock: need 0 <= leave ({self.leave}) <= enter ({self.enter})")
+        if self.min_frames < 1 or self.blend_frames < 0:
+            raise ValueError("foot lock: min_frames must be >= 1 and blend_frames >= 0")
+        if not 0.0 < self.soft_reach < 1.0:
+            raise ValueError(f"foot lock: soft_reach must be in (0, 1), got {self.soft_reach}")
+        if self.contact_full <= 0 or self.height <= 0 or self.speed <= 0:
+            raise ValueError("foot lock: contact_full, height and speed must be > 0")
+
+
+DEFAULT_CONFIG = FootLockConfig()
+
+
+def leg_chains(skeleton: Skeleton, feet=None) -> tuple:
+    """((hip, knee, ankle, toe, ankle channel, toe channel), ...) per leg, from the contact joints ``feet``
+    (ankle, toe, ankle, toe, ... in contact-channel order; default: LAFAN1's names looked up in the skeleton).
+    The knee is the ankle's parent and the hip the knee's parent."""
+    if feet is None:
+        try:
+            feet = tuple(skeleton.index(n) for n in FOOT_NAMES)
+        except KeyError:
+            raise ValueError(f"foot lock: the skeleton has no joints named {', '.join(FOOT_NAMES)}; pass feet= "
+                             f"(ankle, toe, ankle, toe joint indices in contact-channel order)") from None
+    feet = tuple(int(f) for f in feet)
+    if len(feet) % 2:
+        raise ValueError(f"foot lock: feet must come in (ankle, toe) pairs, got {feet}")
+    parents = skeleton.parents
+    legs = []
+    for k in range(0, len(feet), 2):
+        ankle, toe = feet[k], feet[k + 1]
+        if parents[toe] != ankle or parents[ankle] < 1 or parents[parents[ankle]] < 1:
+            raise ValueError(f"foot lock: joints {ankle}, {toe} are not an ankle and its toe below a knee and a hip")
+        knee = parents[ankle]
+        legs.append((parents[knee], knee, ankle, toe, k, k + 1))
+    return tuple(legs)
+
+
+# ------------------------------------------------------------------------------------------------ spans
+
+
+def stance_score(contact, height, speed, config: FootLockConfig = DEFAULT_CONFIG):
+    """How much a foot looks planted, in [0, 1]; (T,) each.
+
+    contact: the predicted contact probability; height: the foot above the ground (cm); speed: its
+    horizontal speed (cm/frame). min(contact / contact_full, 1) x (1 - height / height)+ x (1 - speed / speed)+:
+    0 wherever the model predicts no contact."""
+    c = jnp.clip(contact / config.contact_full, 0.0, 1.0)
+    h = jnp.clip(1.0 - height / config.height, 0.0, 1.0)
+    v = jnp.clip(1.0 - speed / config.speed, 0.0, 1.0)
+    return c * h * v
+
+
+def hysteresis(score, enter: float, leave: float):
+    """(T,) bool: on from a frame with score > enter until the first frame with score < leave."""
+    def step(on, s):
+        on = jnp.where(on, s >= leave, s > enter)
+        return on, on
+    return jax.lax.scan(step, jnp.asarray(False), score)[1]
+
+
+def _span_ids(mask):
+    """(T,) int: 1, 2, ... numbering the runs of True in ``mask``, 0 outside them."""
+    start = mask & ~jnp.concatenate([jnp.zeros((1,), bool), mask[:-1]])
+    return jnp.where(mask, jnp.cumsum(start), 0)
+
+
+def drop_short_spans(mask, min_frames: int):
+    """(T,) bool: ``mask`` without its runs shorter than ``min_frames``."""
+    ids = _span_ids(mask)
+    n = mask.shape[0]
+    lengths = jax.ops.segment_sum(mask.astype(jnp.int32), ids, num_segments=n + 1)
+    return mask & (lengths[ids] >= min_frames)
+
+
+def span_targets(mask, ankle, foot_rotation, floor, up_axis: int = 1):
+    """Where each span plants the foot: (target ankle positions (T, 3), target foot rotations (T, 4)).
+
+    mask: (T,) bool spans; ankle: (T, 3) the generated ankle; foot_rotation: (T, 4) its global rotation;
+    floor: the lowest height a planted ankle may have (the keyframes' ground level). A span plants at its first frame, or at
+    the last frame (the target keyframe) when it touches it; a span over both keyframes goes linearly from
+    the start keyframe's foot to the target keyframe's. Outside spans the targets are the generated foot."""
+    n = mask.shape[0]
+    t = jnp.arange(n)
+    ids = _span_ids(mask)
+    first = jax.ops.segment_min(t, ids, num_segments=n + 1)[ids]
+    last = jax.ops.segment_max(t, ids, num_segments=n + 1)[ids]
+    at_end = mask & (last == n - 1)
+    at_both = at_end & (first == 0)
+    u = (t / max(n - 1, 1))[:, None]
+    position = jnp.where(at_end[:, None], ankle[-1], ankle[first])
+    position = jnp.where(at_both[:, None], (1.0 - u) * ankle[0] + u * ankle[-1], position)
+    position = position.at[:, up_axis].max(floor)
+    rotation = jnp.where(at_end[:, None], foot_rotation[-1], foot_rotation[first])
+    both = R.quat_normalize((1.0 - u) * foot_rotation[0] + u * _aligned(foot_rotation[-1], foot_rotation[0]))
+    rotation = jnp.where(at_both[:, None], both, rotation)
+    position = jnp.where(mask[:, None], position, ankle)
+    rotation = jnp.where(mask[:, None], rotation, foot_rotation)
+    return position, rotation
+
+
+def _aligned(q, reference):
+    """q with the sign that puts it in the hemisphere of ``reference``."""
+    return jnp.where(jnp.sum(q * reference, axis=-1, keepdims=True) < 0, -q, q)
+
+
+def reachable_spans(mask, reachable):
+    """(T,) bool: the span frames kept: a span is cut at its first unreachable frame (the rest let go);
+    a span touching the last frame is cut from that end instead (its plant is the target keyframe's)."""
+    n = mask.shape[0]
+    ids = _span_ids(mask)
+    last = jax.ops.segment_max(jnp.arange(n), ids, num_segments=n + 1)[ids]
+    first = jax.ops.segment_min(jnp.arange(n), ids, num_segments=n + 1)[ids]
+    at_end = mask & (last == n - 1) & (first > 0)
+
+    def run(m, r):
+        def step(alive, x):
+            m_t, r_t, start_t = x
+            alive = m_t & r_t & (alive | start_t)
+            return alive, alive
+        start = m & ~jnp.concatenate([jnp.zeros((1,), bool), m[:-1]])
+        return jax.lax.scan(step, jnp.asarray(False), (m, r, start))[1]
+
+    forward = run(mask & ~at_end, reachable)
+    backward = run((mask & at_end)[::-1], reachable[::-1])[::-1]
+    return forward | backward
+
+
+def _smoothstep(x):
+    x = jnp.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def blended_corrections(anchor, offset, turn, blend_frames: int):
+    """Corrections of every frame from those of the anchor frames, eased in between.
+
+    anchor: (T,) bool (the kept span frames and both keyframes); offset: (T, 3) the ankle correction at
+    anchors (0 at keyframes); turn: (T, 4) the foot's correcting rotation there (identity at keyframes).
+    Between two anchors dp frames after the one and dn before the next (gap n = dp + dn), each side's
+    correction is weighted by smoothstep(1 - d / min(blend_frames + 1, n)): eased out over ``blend_frames``
+    frames, and the two weights sum to at most 1. Returns (offset (T, 3), turn (T, 4), weight (T,) the
+    larger of the two side weights, 1 at anchors)."""
+    identity = jnp.zeros_like(turn).at[:, 0].set(1.0)
+    turn = _aligned(turn, identity)
+
+    def step(carry, x):
+        a, o, q = x
+        o_c, q_c, d_c = carry
+        carry = (jnp.where(a, o, o_c), jnp.where(a, q, q_c), jnp.where(a, 0, d_c + 1))
+        return carry, carry
+
+    init = (jnp.zeros(3, offset.dtype), identity[0], jnp.asarray(0))
+    _, (o_prev, q_prev, d_prev) = jax.lax.scan(step, init, (anchor, offset, turn))
+    _, (o_next, q_next, d_next) = jax.lax.scan(step, init, (anchor[::-1], offset[::-1], turn[::-1]))
+    o_next, q_next, d_next = o_next[::-1], q_next[::-1], d_next[::-1]
+    gap = jnp.maximum(d_prev + d_next, 1)
+    reach = jnp.minimum(blend_frames + 1, gap).astype(offset.dtype)
+    w_prev = jnp.where(anchor, 1.0, _smoothstep(1.0 - d_prev / reach))
+    w_next = jnp.where(anchor, 0.0, _smoothstep(1.0 - d_next / reach))
+    blended = w_prev[:, None] * o_prev + w_next[:, None] * o_next
+    rest = (1.0 - w_prev - w_next)[:, None]
+    rotation = R.quat_normalize(w_prev[:, None] * q_prev + w_next[:, None] * q_next + rest * identity)
+    return blended, rotation, jnp.maximum(w_prev, w_next)
+
+
+# ---------------------------------------------------------------------------------------------- the leg
+
+
+def soft_reach(distance, length, soft: float):
+    """Reach distance (...) eased below the leg's full ``length``: unchanged up to soft x length, then
+    approaching length exponentially (smooth, always < length)."""
+    knee = soft * length
+    span = (1.0 - soft) * length
+    eased = knee + span * (1.0 - jnp.exp(-(distance - knee) / span))
+    return jnp.where(distance > knee, eased, distance)
+
+
+def two_bone_ik(hip, knee, ankle, target, upper, lower, soft: float = DEFAULT_CONFIG.soft_reach):
+    """Two-bone IK: the hip and knee turns that bring the ankle to ``target`` (softened near full reach).
+
+    hip, knee, ankle: (..., 3) the joints' positions now; target: (..., 3); upper, lower: (...) the thigh
+    and shin lengths. The knee stays in the plane through the hip, the target and the current knee (pole
+    vector: the current knee), so it bends the way it bends now and never flips.
+    Returns (hip turn (..., 4), knee turn (..., 4), new knee (..., 3), new ankle (..., 3), reach ratio (...)):
+    the turns are global rotations applied before the joints' own (new global rotation of the hip =
+    hip turn * old; of the knee = knee turn * hip turn * old); the ratio is |target - hip| / (upper + lower).
+    """
+    length = upper + lower
+    to_target = target - hip
+    distance = jnp.sqrt(jnp.sum(to_target**2, axis=-1) + 1e-12)
+    direction = to_target / distance[..., None]
+    reach = soft_reach(distance, length, soft)
+    reach = jnp.maximum(reach, jnp.abs(upper - lower) + 1e-4 * length)
+    along = (upper**2 - lower**2 + reach**2) / (2.0 * reach)
+    across = jnp.sqrt(jnp.maximum(upper**2 - along**2, 0.0))
+    bend = knee - hip
+    pole = bend - jnp.sum(bend * direction, axis=-1, keepdims=True) * direction
+    pole = pole / jnp.sqrt(jnp.sum(pole**2, axis=-1, keepdims=True) + (1e-6 * length[..., None]) ** 2)
+    new_knee = hip + along[..., None] * direction + across[..., None] * pole
+    new_ankle = hip + reach[..., None] * direction
+    hip_turn = R.quat_between(bend, new_knee - hip)
+    shin_now = R.quat_rotate(hip_turn, ankle - knee)
+    knee_turn = R.quat_between(shin_now, new_ankle - new_knee)
+    return hip_turn, knee_turn, new_knee, new_ankle, distance / length
+
+
+# ----------------------------------------------------------------------------------------- the whole pass
+
+
+def _horizontal_speed(x, up_axis: int):
+    """(T, ...) speed per frame (cm/frame) of positions (T, ..., 3) in the horizontal plane (central
+    differences, one-sided at the ends)."""
+    flat = x.at[..., up_axis].set(0.0)
+    padded = jnp.concatenate([2 * flat[:1] - flat[1:2], flat, 2 * flat[-1:] - flat[-2:-1]], axis=0)
+    return jnp.sqrt(jnp.sum((padded[2:] - padded[:-2]) ** 2, axis=-1) + 1e-12) * 0.5
+
+
+def _floor(heights, joints):
+    """The ground level of the keyframes for these joints: their lowest height at the first and last frame."""
+    return jnp.min(jnp.stack([heights[0], heights[-1]])[:, joints])
+
+
+def _lock_one(rotations, root_positions, contacts, offsets, legs: tuple, parents: tuple, config: FootLockConfig):
+    """The pass on one transition: rotations (T, J, 4), root (T, 3), contacts (T, C), offsets (J, 3)."""
+    up = config.up_axis
+    num_frames = rotations.shape[0]
+    local_positions = jnp.broadcast_to(offsets, rotations.shape[:-1] + (3,)).at[:, 0].set(root_positions)
+    g_rot, g_pos = forward_kinematics(rotations, local_positions, parents)
+    heights = g_pos[..., up]
+    ankles = [leg[2] for leg in legs]
+    toes = [leg[3] for leg in legs]
+    ankle_ground = _floor(heights, jnp.asarray(ankles))
+    toe_ground = _floor(heights, jnp.asarray(toes))
+    keyframe = jnp.zeros(num_frames, bool).at[0].set(True).at[-1].set(True)
+
+    new_rotations = rotations
+    planted, let_go, touched = [], [], []
+    for hip, knee, ankle, toe, c_ankle, c_toe in legs:
+        height = jnp.minimum(heights[:, ankle] - ankle_ground, heights[:, toe] - toe_ground)
+        speed = 0.5 * (_horizontal_speed(g_pos[:, ankle], up) + _horizontal_speed(g_pos[:, toe], up))
+        contact = jnp.maximum(contacts[:, c_ankle], contacts[:, c_toe])
+        spans = drop_short_spans(hysteresis(stance_score(contact, height, speed, config), config.enter,
+                                            config.leave), config.min_frames)
+        target, target_rotation = span_targets(spans, g_pos[:, ankle], g_rot[:, ankle], ankle_ground, up)
+        upper = jnp.linalg.norm(offsets[knee])
+        lower = jnp.linalg.norm(offsets[ankle])
+        reachable = jnp.linalg.norm(target - g_pos[:, hip], axis=-1) <= upper + lower
+        away = (target - g_pos[:, ankle]).at[:, up].set(0.0)
+        near = jnp.sum(away**2, axis=-1) <= config.leash**2
+        kept = reachable_spans(spans, reachable & near)
+        anchor = kept | keyframe
+        offset = jnp.where((kept & ~keyframe)[:, None], target - g_pos[:, ankle], 0.0)
+        turn = R.quat_mul(target_rotation, R.quat_conjugate(g_rot[:, ankle]))
+        turn = jnp.where((kept & ~keyframe)[:, None], turn, jnp.asarray([1.0, 0.0, 0.0, 0.0], turn.dtype))
+        offset, turn, weight = blended_corrections(anchor, offset, turn, config.blend_frames)
+        active = (weight > 0) & ~keyframe & (jnp.any(offset != 0, axis=-1) | (turn[:, 0] < 1.0))
+
+        hip_turn, knee_turn, _, _, _ = two_bone_ik(g_pos[:, hip], g_pos[:, knee], g_pos[:, ankle],
+                                                   g_pos[:, ankle] + offset, upper, lower, config.soft_reach)
+        hip_global = R.quat_mul(hip_turn, g_rot[:, hip])
+        knee_global = R.quat_mul(knee_turn, R.quat_mul(hip_turn, g_rot[:, knee]))
+        foot_global = R.quat_mul(turn, g_rot[:, ankle])
+        parent_of_hip = g_rot[:, parents[hip]]
+        local = {hip: R.quat_mul(R.quat_conjugate(parent_of_hip), hip_global),
+                 knee: R.quat_mul(R.quat_conjugate(hip_global), knee_global),
+                 ankle: R.quat_mul(R.quat_conjugate(knee_global), foot_global)}
+        for joint, q in local.items():
+            q = _aligned(R.quat_normalize(q), rotations[:, joint])
+            new_rotations = new_rotations.at[:, joint].set(jnp.where(active[:, None], q, rotations[:, joint]))
+        planted.append(kept & ~keyframe)
+        let_go.append(spans & ~reachable_spans(spans, reachable))
+        touched.append(active)
+    return {"rotations": new_rotations, "root_positions": root_positions,
+            "planted": jnp.stack(planted, -1), "let_go": jnp.stack(let_go, -1), "changed": jnp.stack(touched, -1)}
+
+
+@functools.partial(jax.jit, static_argnames=("skeleton", "feet", "config"))
+def lock_feet(rotations, root_positions, contacts, skeleton: Skeleton, offsets=None, feet=None,
+              config: FootLockConfig = DEFAULT_CONFIG) -> dict:
+    """Foot locking over a batch of transitions (jit-compiled; vmap-able).
+
+    rotations: (..., T, J, 4) local rotations of transitions whose first and last frames are the keyframes;
+    root_positions: (..., T, 3); contacts: (..., T, C) predicted contact probabilities, one channel per
+    joint of ``feet`` (the keyframes' rows: their contact labels); skeleton: its parents (static);
+    offsets: (..., J, 3) bone offsets (default: the skeleton's); feet: the contact joints (ankle, toe, ...)
+    in channel order (default: LAFAN1's names); config: :class:`FootLockConfig`.
+    Returns {"rotations" (..., T, J, 4), "root_positions" (..., T, 3) (unchanged), "planted" (..., T, legs)
+    frames held by a span, "let_go" (..., T, legs) span frames let go because out of reach, "changed"
+    (..., T, legs) frames whose leg moved}. Unchanged frames, keyframes among them, are the inputs exactly.
+    """
+    legs = leg_chains(skeleton, feet)
+    batch = rotations.shape[:-3]
+    if offsets is None:
+        offsets = jnp.asarray(skeleton.offsets, rotations.dtype)
+    offsets = jnp.broadcast_to(jnp.asarray(offsets, rotations.dtype), batch + (skeleton.num_joints, 3))
+    flat = lambda x, k: x.reshape((-1,) + x.shape[x.ndim - k:])  # noqa: E731
+    out = jax.vmap(functools.partial(_lock_one, legs=legs, parents=skeleton.parents, config=config))(
+        flat(rotations, 3), flat(root_positions, 2), flat(jnp.asarray(contacts, rotations.dtype), 2),
+        flat(offsets, 2))
+    return jax.tree.map(lambda x: x.reshape(batch + x.shape[1:]), out)
+
+
+def lock_transitions(rotations, positions, contacts, skeleton: Skeleton, feet=None,
+                     config: FootLockConfig = DEFAULT_CONFIG):
+    """:func:`lock_feet` on float64 numpy transitions: local rotations (..., T, J, 4), local positions
+    (..., T, J, 3) (root position and bone offsets), contacts (..., T, C). Computed in float32; every leg
+    joint rotation the pass does not change keeps its float64 input exactly.
+    Returns (rotations (..., T, J, 4), positions (..., T, J, 3) (the input), stats {"planted", "let_go",
+    "changed": (..., T, legs) bool})."""
+    rotations = np.asarray(rotations, np.float64)
+    positions = np.asarray(positions, np.float64)
+    as32 = lambda x: jnp.asarray(x, jnp.float32)  # noqa: E731
+    out = lock_feet(as32(rotations), as32(positions[..., 0, :]), as32(contacts), skeleton,
+                    offsets=as32(positions[..., 0, :, :]), feet=feet, config=config)
+    changed = np.asarray(out["changed"])
+    new = np.asarray(out["rotations"], np.float64)
+    result = rotations.copy()
+    for k, (hip, knee, ankle, _, _, _) in enumerate(leg_chains(skeleton, feet)):
+        mask = changed[..., k, None]
+        for joint in (hip, knee, ankle):
+            result[..., joint, :] = np.where(mask, new[..., joint, :], rotations[..., joint, :])
+    stats = {key: np.asarray(out[key]) for key in ("planted", "let_go", "changed")}
+    return result, positions, stats
