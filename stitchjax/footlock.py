@@ -61,6 +61,13 @@ class FootLockConfig:
     soft_reach: fraction of the leg's length from which the IK reach is softened (< 1).
     leash: a span ends where the generated ankle has moved this far (cm, horizontally) from its plant, so
       that no release has to make up more than this.
+    plant_at: where along a span its plant is taken, when it touches no keyframe (0: its first frame).
+    release_speed: a span ends where its correction could not be eased out before the keyframe it is not
+      planted at at this many cm per frame (so no correction is squeezed into the last frames).
+    hold_while_low: a span, once on, lasts while the score without its speed factor stays >= leave (the
+      generated foot's speed does not matter while it is held; it ends when the foot lifts).
+    lift_power: the vertical part of a correction is eased with the blend weight to this power, so a foot
+      leaving a plant follows the generated foot up sooner than across.
     up_axis: the vertical axis of the positions.
     """
 
@@ -73,6 +80,10 @@ class FootLockConfig:
     blend_frames: int = 12
     soft_reach: float = 0.97
     leash: float = 25.0
+    plant_at: float = 0.0
+    release_speed: float = 2.0
+    hold_while_low: bool = False
+    lift_power: float = 3.0
     up_axis: int = 1
 
     def __post_init__(self):
@@ -128,12 +139,16 @@ def stance_score(contact, height, speed, config: FootLockConfig = DEFAULT_CONFIG
     return c * h * v
 
 
-def hysteresis(score, enter: float, leave: float):
-    """(T,) bool: on from a frame with score > enter until the first frame with score < leave."""
-    def step(on, s):
-        on = jnp.where(on, s >= leave, s > enter)
+def hysteresis(score, enter: float, leave: float, stay_score=None):
+    """(T,) bool: on from a frame with score > enter until the first frame with stay_score < leave
+    (stay_score: (T,), default ``score``)."""
+    stay_score = score if stay_score is None else stay_score
+
+    def step(on, x):
+        s, stay = x
+        on = jnp.where(on, stay >= leave, s > enter)
         return on, on
-    return jax.lax.scan(step, jnp.asarray(False), score)[1]
+    return jax.lax.scan(step, jnp.asarray(False), (score, stay_score))[1]
 
 
 def _span_ids(mask):
@@ -150,13 +165,15 @@ def drop_short_spans(mask, min_frames: int):
     return mask & (lengths[ids] >= min_frames)
 
 
-def span_targets(mask, ankle, foot_rotation, floor, up_axis: int = 1):
+def span_targets(mask, ankle, foot_rotation, floor, up_axis: int = 1, plant_at: float = 0.0):
     """Where each span plants the foot: (target ankle positions (T, 3), target foot rotations (T, 4)).
 
     mask: (T,) bool spans; ankle: (T, 3) the generated ankle; foot_rotation: (T, 4) its global rotation;
     floor: the lowest height a planted ankle may have (the keyframes' ground level). A span plants at its first frame, or at
     the last frame (the target keyframe) when it touches it; a span over both keyframes goes linearly from
-    the start keyframe's foot to the target keyframe's. Outside spans the targets are the generated foot."""
+    the start keyframe's foot to the target keyframe's. Outside spans the targets are the generated foot.
+    plant_at: where along a span that touches no keyframe its plant is taken (0: its first frame, 0.5: its
+    middle frame)."""
     n = mask.shape[0]
     t = jnp.arange(n)
     ids = _span_ids(mask)
@@ -165,6 +182,7 @@ def span_targets(mask, ankle, foot_rotation, floor, up_axis: int = 1):
     at_end = mask & (last == n - 1)
     at_both = at_end & (first == 0)
     u = (t / max(n - 1, 1))[:, None]
+    first = jnp.where(first == 0, 0, first + jnp.round(plant_at * (last - first)).astype(first.dtype))
     position = jnp.where(at_end[:, None], ankle[-1], ankle[first])
     position = jnp.where(at_both[:, None], (1.0 - u) * ankle[0] + u * ankle[-1], position)
     position = position.at[:, up_axis].max(floor)
@@ -179,6 +197,19 @@ def span_targets(mask, ankle, foot_rotation, floor, up_axis: int = 1):
 def _aligned(q, reference):
     """q with the sign that puts it in the hemisphere of ``reference``."""
     return jnp.where(jnp.sum(q * reference, axis=-1, keepdims=True) < 0, -q, q)
+
+
+def release_room(mask):
+    """(T,) frames a span frame has for easing its correction out before the keyframe it is not planted at:
+    to the last frame for a span planted at its own frame, to the first for one planted at the target
+    keyframe; unlimited (T) for a span over both keyframes and outside spans."""
+    n = mask.shape[0]
+    t = jnp.arange(n)
+    ids = _span_ids(mask)
+    first = jax.ops.segment_min(t, ids, num_segments=n + 1)[ids]
+    last = jax.ops.segment_max(t, ids, num_segments=n + 1)[ids]
+    room = jnp.where(last == n - 1, t, n - 1 - t)
+    return jnp.where(mask & ~((first == 0) & (last == n - 1)), room, n)
 
 
 def reachable_spans(mask, reachable):
@@ -208,14 +239,15 @@ def _smoothstep(x):
     return x * x * (3.0 - 2.0 * x)
 
 
-def blended_corrections(anchor, offset, turn, blend_frames: int):
+def blended_corrections(anchor, offset, turn, blend_frames: int, lift_power: float = 1.0, up_axis: int = 1):
     """Corrections of every frame from those of the anchor frames, eased in between.
 
     anchor: (T,) bool (the kept span frames and both keyframes); offset: (T, 3) the ankle correction at
     anchors (0 at keyframes); turn: (T, 4) the foot's correcting rotation there (identity at keyframes).
     Between two anchors dp frames after the one and dn before the next (gap n = dp + dn), each side's
     correction is weighted by smoothstep(1 - d / min(blend_frames + 1, n)): eased out over ``blend_frames``
-    frames, and the two weights sum to at most 1. Returns (offset (T, 3), turn (T, 4), weight (T,) the
+    frames, and the two weights sum to at most 1; the vertical part (``up_axis``) by those weights to the
+    power ``lift_power``. Returns (offset (T, 3), turn (T, 4), weight (T,) the
     larger of the two side weights, 1 at anchors)."""
     identity = jnp.zeros_like(turn).at[:, 0].set(1.0)
     turn = _aligned(turn, identity)
@@ -235,6 +267,8 @@ def blended_corrections(anchor, offset, turn, blend_frames: int):
     w_prev = jnp.where(anchor, 1.0, _smoothstep(1.0 - d_prev / reach))
     w_next = jnp.where(anchor, 0.0, _smoothstep(1.0 - d_next / reach))
     blended = w_prev[:, None] * o_prev + w_next[:, None] * o_next
+    vertical = w_prev**lift_power * o_prev[:, up_axis] + w_next**lift_power * o_next[:, up_axis]
+    blended = blended.at[:, up_axis].set(vertical)
     rest = (1.0 - w_prev - w_next)[:, None]
     rotation = R.quat_normalize(w_prev[:, None] * q_prev + w_next[:, None] * q_next + rest * identity)
     return blended, rotation, jnp.maximum(w_prev, w_next)
@@ -316,20 +350,23 @@ def _lock_one(rotations, root_positions, contacts, offsets, legs: tuple, parents
         height = jnp.minimum(heights[:, ankle] - ankle_ground, heights[:, toe] - toe_ground)
         speed = 0.5 * (_horizontal_speed(g_pos[:, ankle], up) + _horizontal_speed(g_pos[:, toe], up))
         contact = jnp.maximum(contacts[:, c_ankle], contacts[:, c_toe])
-        spans = drop_short_spans(hysteresis(stance_score(contact, height, speed, config), config.enter,
-                                            config.leave), config.min_frames)
-        target, target_rotation = span_targets(spans, g_pos[:, ankle], g_rot[:, ankle], ankle_ground, up)
+        score = stance_score(contact, height, speed, config)
+        stay = stance_score(contact, height, jnp.zeros_like(speed), config) if config.hold_while_low else score
+        spans = drop_short_spans(hysteresis(score, config.enter, config.leave, stay), config.min_frames)
+        target, target_rotation = span_targets(spans, g_pos[:, ankle], g_rot[:, ankle], ankle_ground, up,
+                                               config.plant_at)
         upper = jnp.linalg.norm(offsets[knee])
         lower = jnp.linalg.norm(offsets[ankle])
         reachable = jnp.linalg.norm(target - g_pos[:, hip], axis=-1) <= upper + lower
         away = (target - g_pos[:, ankle]).at[:, up].set(0.0)
         near = jnp.sum(away**2, axis=-1) <= config.leash**2
-        kept = reachable_spans(spans, reachable & near)
+        room = jnp.linalg.norm(target - g_pos[:, ankle], axis=-1) <= config.release_speed * release_room(spans)
+        kept = reachable_spans(spans, reachable & near & room)
         anchor = kept | keyframe
         offset = jnp.where((kept & ~keyframe)[:, None], target - g_pos[:, ankle], 0.0)
         turn = R.quat_mul(target_rotation, R.quat_conjugate(g_rot[:, ankle]))
         turn = jnp.where((kept & ~keyframe)[:, None], turn, jnp.asarray([1.0, 0.0, 0.0, 0.0], turn.dtype))
-        offset, turn, weight = blended_corrections(anchor, offset, turn, config.blend_frames)
+        offset, turn, weight = blended_corrections(anchor, offset, turn, config.blend_frames, config.lift_power, up)
         active = (weight > 0) & ~keyframe & (jnp.any(offset != 0, axis=-1) | (turn[:, 0] < 1.0))
 
         hip_turn, knee_turn, _, _, _ = two_bone_ik(g_pos[:, hip], g_pos[:, knee], g_pos[:, ankle],
