@@ -244,3 +244,25 @@ def test_cli_errors_are_one_line(tiny_run, tmp_path):
     result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 109,
                   "--noise-correlation", 2, "--out", tmp_path)
     assert result.returncode == 2 and "--noise-correlation 2" in result.stderr
+
+
+def test_foot_lock_moves_only_the_legs_and_keeps_the_keyframes(model, take):
+    from stitchjax import footlock
+
+    start, target = take[99:101], take[110:112]
+    plain = inbetween.inbetween(model, start, target, LENGTH, num_samples=CANDIDATES, seed=0)
+    eager = footlock.FootLockConfig(contact_full=0.01, speed=50.0, height=50.0, enter=0.05, leave=0.01)
+    locked = inbetween.inbetween(model, start, target, LENGTH, num_samples=CANDIDATES, seed=0, foot_lock=eager)
+    legs = [1, 2, 3, 5, 6, 7]  # hips, knees and ankles of both legs
+    others = [j for j in range(22) if j not in legs]
+    moved = 0
+    for a, b in zip(plain, locked):
+        np.testing.assert_array_equal(a.positions, b.positions)
+        np.testing.assert_array_equal(a.rotations[:, others], b.rotations[:, others])
+        np.testing.assert_array_equal(a.rotations[[0, -1]], b.rotations[[0, -1]])
+        moved += int(np.abs(a.rotations - b.rotations).max() > 1e-6)
+    assert moved > 0
+    method = evaluate.model_method(model, foot_lock=eager)
+    method(_one_window(take), 1, LENGTH, CANDIDATES, 11)
+    counts = method.foot_lock_counts
+    assert counts["leg_frames"] == CANDIDATES * LENGTH * 2 and 0 < counts["changed"] <= counts["leg_frames"]
