@@ -68,6 +68,8 @@ class FootLockConfig:
       generated foot's speed does not matter while it is held; it ends when the foot lifts).
     lift_power: the vertical part of a correction is eased with the blend weight to this power, so a foot
       leaving a plant follows the generated foot up sooner than across.
+    step_lift: a foot eased from or to a plant is lifted on an arc of this fraction of the horizontal
+      distance it makes up (0: slides back along the ground), at most ``max_step_height`` cm: a step.
     up_axis: the vertical axis of the positions.
     """
 
@@ -75,7 +77,7 @@ class FootLockConfig:
     height: float = 6.0
     speed: float = 6.0
     enter: float = 0.5
-    leave: float = 0.25
+    leave: float = 0.1
     min_frames: int = 3
     blend_frames: int = 12
     soft_reach: float = 0.97
@@ -84,6 +86,8 @@ class FootLockConfig:
     release_speed: float = 2.0
     hold_while_low: bool = False
     lift_power: float = 3.0
+    step_lift: float = 0.5
+    max_step_height: float = 6.0
     up_axis: int = 1
 
     def __post_init__(self):
@@ -248,7 +252,8 @@ def blended_corrections(anchor, offset, turn, blend_frames: int, lift_power: flo
     correction is weighted by smoothstep(1 - d / min(blend_frames + 1, n)): eased out over ``blend_frames``
     frames, and the two weights sum to at most 1; the vertical part (``up_axis``) by those weights to the
     power ``lift_power``. Returns (offset (T, 3), turn (T, 4), weight (T,) the
-    larger of the two side weights, 1 at anchors)."""
+    larger of the two side weights, 1 at anchors, arc (T,): the sum over both sides of 4 w (1 - w) times the
+    horizontal length of that side's correction, 0 at anchors, at most that length mid-ease)."""
     identity = jnp.zeros_like(turn).at[:, 0].set(1.0)
     turn = _aligned(turn, identity)
 
@@ -269,9 +274,11 @@ def blended_corrections(anchor, offset, turn, blend_frames: int, lift_power: flo
     blended = w_prev[:, None] * o_prev + w_next[:, None] * o_next
     vertical = w_prev**lift_power * o_prev[:, up_axis] + w_next**lift_power * o_next[:, up_axis]
     blended = blended.at[:, up_axis].set(vertical)
+    across = lambda o: jnp.sqrt(jnp.sum(o.at[:, up_axis].set(0.0) ** 2, axis=-1))  # noqa: E731
+    arc = 4.0 * (w_prev * (1.0 - w_prev) * across(o_prev) + w_next * (1.0 - w_next) * across(o_next))
     rest = (1.0 - w_prev - w_next)[:, None]
     rotation = R.quat_normalize(w_prev[:, None] * q_prev + w_next[:, None] * q_next + rest * identity)
-    return blended, rotation, jnp.maximum(w_prev, w_next)
+    return blended, rotation, jnp.maximum(w_prev, w_next), arc
 
 
 # ---------------------------------------------------------------------------------------------- the leg
@@ -366,7 +373,9 @@ def _lock_one(rotations, root_positions, contacts, offsets, legs: tuple, parents
         offset = jnp.where((kept & ~keyframe)[:, None], target - g_pos[:, ankle], 0.0)
         turn = R.quat_mul(target_rotation, R.quat_conjugate(g_rot[:, ankle]))
         turn = jnp.where((kept & ~keyframe)[:, None], turn, jnp.asarray([1.0, 0.0, 0.0, 0.0], turn.dtype))
-        offset, turn, weight = blended_corrections(anchor, offset, turn, config.blend_frames, config.lift_power, up)
+        offset, turn, weight, arc = blended_corrections(anchor, offset, turn, config.blend_frames,
+                                                        config.lift_power, up)
+        offset = offset.at[:, up].add(jnp.minimum(config.step_lift * arc, config.max_step_height))
         active = (weight > 0) & ~keyframe & (jnp.any(offset != 0, axis=-1) | (turn[:, 0] < 1.0))
 
         hip_turn, knee_turn, _, _, _ = two_bone_ik(g_pos[:, hip], g_pos[:, knee], g_pos[:, ankle],

@@ -31,7 +31,7 @@ from matplotlib.figure import Figure
 __all__ = [
     "horizontal_axis", "project", "draw_skeleton", "stick_figure", "filmstrip",
     "root_trajectories", "error_over_time", "per_frame_error", "animate", "frame_colors",
-    "loss_curves",
+    "loss_curves", "foot_lock_before_after",
 ]
 
 KEYFRAME_COLOR = "black"
@@ -479,4 +479,63 @@ def loss_curves(records: Sequence[Mapping[str, float]], *, dpi: int = 90, path=N
         ax.axis("off")
     fig.tight_layout()
     fig.set_dpi(dpi)
+    return _finish(fig, path)
+
+
+# ------------------------------------------------------------------------------------------ foot locking
+
+
+def _shade_spans(ax, mask, color, alpha, label=None):
+    """Shade the runs of True in ``mask`` (T,) as frame intervals [t - 0.5, t + 0.5]."""
+    mask = np.asarray(mask, bool)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(int), [0]])))
+    for k, (a, b) in enumerate(zip(edges[::2], edges[1::2])):
+        ax.axvspan(a - 0.5, b - 0.5, color=color, alpha=alpha, linewidth=0, label=label if k == 0 else None)
+
+
+def foot_lock_before_after(before, after, planted, feet, *, let_go=None, ground: float = 0.0, up_axis: int = 1,
+                           leg_names: Sequence[str] = ("left", "right"), figsize=(8.0, 4.6), dpi: int = 90,
+                           title: str | None = None, path=None) -> Figure:
+    """Foot heights and sliding along one transition without and with foot locking (``stitchjax.footlock``).
+
+    before, after: (T, J, 3) global positions (keyframes included); planted: (T, legs) bool frames held by a
+    span (shaded); let_go: optional (T, legs) span frames let go out of reach (shaded red); feet: the
+    contact joints (ankle, toe, ...) per leg in order; ground: the ground height (file units).
+    Top row: each leg's lowest foot joint above the ground; bottom row: its ankle's horizontal displacement
+    to the next frame (file units per frame), dashed without the pass, solid with it.
+    """
+    before, after = np.asarray(before, np.float64), np.asarray(after, np.float64)
+    planted = np.asarray(planted, bool)
+    legs = len(feet) // 2
+    if before.shape != after.shape or planted.shape != (before.shape[0], legs):
+        raise ValueError(f"foot_lock_before_after: positions {before.shape} and {after.shape} must match and "
+                         f"planted must be (T, {legs}), got {planted.shape}")
+    horizontal = [a for a in range(3) if a != up_axis]
+    fig = _new_figure(figsize, dpi)
+    frames = np.arange(before.shape[0])
+    for leg in range(legs):
+        ankle, toe = feet[2 * leg], feet[2 * leg + 1]
+        top = fig.add_subplot(2, legs, leg + 1)
+        bottom = fig.add_subplot(2, legs, legs + leg + 1, sharex=top)
+        for ax in (top, bottom):
+            _shade_spans(ax, planted[:, leg], "tab:green", 0.15, "planted")
+            if let_go is not None:
+                _shade_spans(ax, np.asarray(let_go, bool)[:, leg], "tab:red", 0.2, "let go")
+            ax.grid(True, linewidth=0.4, alpha=0.5)
+        for x, style, name in ((before, "--", "without"), (after, "-", "with foot locking")):
+            height = np.minimum(x[:, ankle, up_axis], x[:, toe, up_axis]) - ground
+            top.plot(frames, height, style, color="C0", linewidth=1.2, label=name)
+            step = np.linalg.norm(np.diff(x[:, ankle][:, horizontal], axis=0), axis=-1)
+            bottom.plot(frames[:-1], step, style, color="C1", linewidth=1.2, label=name)
+        top.set_title(f"{leg_names[leg] if leg < len(leg_names) else leg} foot", fontsize=9)
+        top.set_ylabel("height above ground")
+        bottom.set_ylabel("ankle slide per frame")
+        bottom.set_xlabel("frame (0 and last: keyframes)")
+        top.set_ylim(bottom=min(0.0, top.get_ylim()[0]))
+        bottom.set_ylim(bottom=0)
+        if leg == 0:
+            top.legend(fontsize=7, loc="upper right")
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
     return _finish(fig, path)

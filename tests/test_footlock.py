@@ -140,8 +140,9 @@ def test_spans_hysteresis_and_blend():
     anchor = jnp.zeros(11, bool).at[jnp.asarray([0, 1, 2, 10])].set(True)
     offset = jnp.zeros((11, 3)).at[2].set(jnp.asarray([4.0, 0.0, 0.0]))
     turn = jnp.zeros((11, 4)).at[:, 0].set(1.0)
-    blended, _, weight = footlock.blended_corrections(anchor, offset, turn, blend_frames=4)
+    blended, _, weight, arc = footlock.blended_corrections(anchor, offset, turn, blend_frames=4)
     x = np.asarray(blended[:, 0])
     assert x[2] == 4.0 and x[10] == 0.0 and x[7] == 0.0
     assert np.all(np.diff(x[2:8]) <= 0) and 0 < x[4] < 4.0  # eased out over 4 frames
     assert np.asarray(weight)[2] == 1.0 and np.abs(x[7:]).max() == 0.0
+    assert np.asarray(arc)[2] == 0.0 and 0 < np.asarray(arc)[4] <= 4.0 + 1e-6  # a step: highest mid-ease
