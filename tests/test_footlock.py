@@ -146,3 +146,21 @@ def test_spans_hysteresis_and_blend():
     assert np.all(np.diff(x[2:8]) <= 0) and 0 < x[4] < 4.0  # eased out over 4 frames
     assert np.asarray(weight)[2] == 1.0 and np.abs(x[7:]).max() == 0.0
     assert np.asarray(arc)[2] == 0.0 and 0 < np.asarray(arc)[4] <= 4.0 + 1e-6  # a step: highest mid-ease
+
+
+def test_before_after_figure(tmp_path):
+    import pytest
+
+    from stitchjax import plots
+
+    rotations, root, contacts = _transition()
+    local = np.broadcast_to(OFFSETS, rotations.shape[:-1] + (3,)).copy()
+    local[:, 0] = root
+    locked, _, stats = footlock.lock_transitions(rotations, local, contacts, SKELETON, FEET)
+    before, after = _global_positions(rotations, root), _global_positions(locked, root)
+    fig = plots.foot_lock_before_after(before, after, stats["planted"], FEET, let_go=stats["let_go"],
+                                       leg_names=("left",), dpi=50, path=tmp_path / "f.png")
+    assert tuple(np.round(fig.get_size_inches() * fig.dpi)) == (400, 230)
+    assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
+    with pytest.raises(ValueError, match="planted must be"):
+        plots.foot_lock_before_after(before, after, stats["planted"][:5], FEET)

@@ -266,3 +266,14 @@ def test_foot_lock_moves_only_the_legs_and_keeps_the_keyframes(model, take):
     method(_one_window(take), 1, LENGTH, CANDIDATES, 11)
     counts = method.foot_lock_counts
     assert counts["leg_frames"] == CANDIDATES * LENGTH * 2 and 0 < counts["changed"] <= counts["leg_frames"]
+
+
+def test_cli_foot_lock_flag_keeps_the_keyframes(tiny_run, take, tmp_path):
+    source = sample.sample_files(["subject5"])[0]
+    result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 100 + LENGTH + 1,
+                  "--samples", 1, "--foot-lock", "--gif", "--out", tmp_path)
+    assert result.returncode == 0, result.stderr
+    g, full = _global(bvh.load(next(tmp_path.glob("*.bvh")))), _global(take)
+    for frame in (100, 100 + LENGTH + 1):
+        assert np.abs(g[frame] - full[frame]).max() < TOL_CM
+    assert next(tmp_path.glob("*.gif")).stat().st_size > 1000 and next(tmp_path.glob("*_filmstrip.png"))
