@@ -13,9 +13,13 @@ A post-process over generated transitions (start keyframe, L generated frames, t
    the keyframes' feet (the lowest ankle of both keyframes).
 4. **Out of reach** (:func:`reachable_spans`): from the first frame where the planted ankle is farther from
    the hip than the leg is long, the foot is let go for the rest of its span (counted as let-go frames).
+   A span also ends where the generated foot has drifted ``leash`` cm from its plant, or where its
+   correction could no longer be eased out at ``release_speed`` cm/frame before the keyframe it is not
+   planted at (:func:`release_room`).
 5. **Blend** (:func:`blended_corrections`): the correction (ankle offset and foot turn) is eased out after
    each span and in before the next one over up to ``blend_frames`` frames (smoothstep), and is zero at
-   both keyframes.
+   both keyframes. A foot eased across is lifted on an arc (``step_lift`` of the distance, at most
+   ``max_step_height``): it steps to where the generated foot is instead of sliding there.
 6. **Leg solve** (:func:`two_bone_ik`): hip, knee and ankle turned so the ankle reaches its target; bones keep
    their lengths exactly (only rotations change), the knee stays in the plane of the generated pose (pole
    vector), and the reach is softened near full extension (``soft_reach``), so a leg is straightened, never
@@ -42,7 +46,7 @@ from stitchjax import rotations as R
 from stitchjax.skeleton import Skeleton, forward_kinematics
 
 __all__ = ["FootLockConfig", "DEFAULT_CONFIG", "leg_chains", "stance_score", "hysteresis", "drop_short_spans",
-           "span_targets", "reachable_spans", "blended_corrections", "two_bone_ik", "lock_feet",
+           "span_targets", "release_room", "reachable_spans", "blended_corrections", "soft_reach", "two_bone_ik", "lock_feet",
            "lock_transitions"]
 
 FOOT_NAMES = ("LeftFoot", "LeftToe", "RightFoot", "RightToe")
