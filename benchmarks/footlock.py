@@ -98,7 +98,7 @@ def main(argv=None) -> int:
 
     jitted()
     rows["pass (jitted, on device)"] = _time(jitted, args.runs)
-    print(f"foot locking benchmark: {args.samples} x {args.length} frames, {model.source}, median (min) of "
+    print(f"foot locking benchmark: {args.samples} x {args.length} frames, {args.checkpoint}, median (min) of "
           f"{args.runs} runs after warm-up; {os.cpu_count()} CPU cores visible, {jax.devices()[0]}")
     for name, (median, low) in rows.items():
         print(f"  {name:>26}: {median * 1e3:8.1f} ms ({low * 1e3:.1f})")
@@ -118,7 +118,7 @@ def main(argv=None) -> int:
             json.dump({"median_s": {k: v[0] for k, v in rows.items()}, "min_s": {k: v[1] for k, v in rows.items()},
                        "pass_share_of_sampling": rows["pass (numpy in/out)"][0] / base,
                        "changed_leg_frames_share": share, "samples": args.samples, "length": args.length,
-                       "model": model.source, "command": "python " + " ".join(sys.argv), "commit": commit,
+                       "model": args.checkpoint, "command": "python " + " ".join(sys.argv), "commit": commit,
                        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs (2-core AMD EPYC CPU VM)",
                        "wall_s": time.time() - started}, f, indent=1)
     return 0
