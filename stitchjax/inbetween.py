@@ -263,7 +263,8 @@ def _locked(model: Model, rotations, positions, contacts, config, counts: dict |
 
     config = footlock.DEFAULT_CONFIG if config is True else config
     names = model.joint_names or tuple(f"joint{j}" for j in range(model.num_joints))
-    skeleton = skeleton_lib.Skeleton(names, model.parents, positions[0, 0, 0])
+    # the structure only (a static argument of the jitted pass): each transition's own offsets are passed
+    skeleton = skeleton_lib.Skeleton(names, model.parents, np.zeros((model.num_joints, 3)))
     locked, _, stats = footlock.lock_transitions(rotations, positions, contacts, skeleton, model.feet, config)
     if counts is not None:
         inner = stats["planted"][..., 1:-1, :]
