@@ -85,7 +85,8 @@ def _matches_subject(rel: pathlib.PurePath, subject: str) -> bool:
 
 
 def split_files(data_dir, data, split: str = "train") -> list:
-    """The files of ``split`` ("train" or "test") under ``data_dir`` by ``data``'s patterns or subjects."""
+    """The files of ``split`` ("train", "validation" or "test") under ``data_dir`` by ``data``'s patterns or
+    subjects; "validation" = the stems of ``data.validation_files``, which "train" leaves out."""
     folder = pathlib.Path(os.fspath(data_dir)).expanduser()
     files = list_files(folder)
     rel = {p: pathlib.PurePosixPath(p.relative_to(folder).as_posix()) for p in files}
@@ -94,7 +95,11 @@ def split_files(data_dir, data, split: str = "train") -> list:
     def matches(p, patterns):
         return any(fnmatch.fnmatch(str(rel[p]), pat) or fnmatch.fnmatch(rel[p].name, pat) for pat in patterns)
 
-    if split == "test":
+    validation = {_stem(pathlib.Path(n)) for n in getattr(data, "validation_files", ())}
+    if split == "validation":
+        chosen = [p for p in files if _stem(p) in validation]
+        what = f"data.validation_files={tuple(data.validation_files)}"
+    elif split == "test":
         chosen = [p for p in files if matches(p, test_patterns)] if test_patterns else []
         what = f"data.test_files={test_patterns}"
     elif train_patterns:
@@ -107,6 +112,8 @@ def split_files(data_dir, data, split: str = "train") -> list:
     else:
         chosen = [p for p in files if not matches(p, test_patterns)]
         what = "every file not in data.test_files"
+    if split == "train":
+        chosen = [p for p in chosen if _stem(p) not in validation]  # the validation takes never train
     if not chosen:
         names = ", ".join(str(rel[p]) for p in files[:6]) + (" ..." if len(files) > 6 else "")
         raise BVHFolderError(f"no {split} files in {folder} for {what}; it holds {names}. Set data.train_files / "

@@ -55,6 +55,16 @@ class DataConfig:
     test_files: tuple = ()  # reason: dataset "bvh_folder": glob patterns of test files (kept out of training)
     unit_scale: float = 0.0  # reason: dataset "bvh_folder": centimetres per file unit; 0 = inferred from
     # the skeleton's height (cm or m), else set it (CMU: 5.6444)
+    validation_files: tuple = ()  # reason: training takes (file names without .bvh) held out whole as the
+    # validation split: they never train, train.eval_every and `bin/evaluate --split validation` score them;
+    # () = no split (validation falls back to the test windows). A test file here is refused
+    extra_train_dirs: tuple = ()  # reason: more folders of training takes on the same skeleton (another frame
+    # rate, an extra root bone above Hips: conformed on load, datasets.training_set); a file of a test,
+    # validation or main take is refused. Relative paths: to --data
+    random_starts: bool = False  # paper: windows start every data.offset frames. True: any frame can start a
+    # training window (drawn per batch, features.random_start_batch); its keyframes stay its first / last frame
+    mirror: bool = False  # paper: no mirroring. True: every training window also trains as its left/right mirror
+    # image (windows.mirror_arrays; joints and contacts swapped by their Left*/Right* names)
 
     @property
     def num_joints(self) -> int:
@@ -224,7 +234,7 @@ class TrainConfig:
     # schedule projects to 91.5 h bucketed vs 109.7 h masked (1.2x). () = masked (quickstart: compile
     # dominates a short run)
     eval_every: int = 0  # reason: > 0 runs stitchjax.validation every this many steps (bin/train; 0 = off)
-    eval_windows: int = 32  # reason: test windows validated (evenly spaced, the same every time): cheap
+    eval_windows: int = 32  # reason: validation windows (data.validation_files, else test windows) validated (evenly spaced, the same every time): cheap
     eval_lengths: tuple = (30,)  # reason: the paper's mid length; (30, 50) adds the long one
     eval_samples: int = 4  # reason: enough for APD and a stable mean ADE on 32 windows
 

@@ -19,12 +19,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from stitchjax import phase
+from stitchjax import rotations as R
 from stitchjax import skeleton as skel
 
 __all__ = [
     "state_dim", "state_vector", "split_state", "root_velocities", "offset_features",
     "local_positions", "integrate_root", "prepare_dataset", "dataset_states", "DatasetError",
-    "root_speed_percentiles",
+    "root_speed_percentiles", "RANDOM_START_KEYS", "cut_windows", "random_start_batch",
 ]
 
 
@@ -159,3 +160,51 @@ def root_speed_percentiles(root_positions, fps: float, up_axis: int = 1) -> dict
         raise DatasetError("no frame steps to measure the root speed on (windows of one frame)")
     return {"p50": float(np.percentile(speed, 50)), "p99": float(np.percentile(speed, 99)),
             "max": float(speed.max())}
+
+
+# Arrays a random-start dataset carries besides the windows' own: "facing" (N, T', 4) the turn that faces the
+# window at each frame (windows.facing_per_frame), "start_counts" (N, 1) int32 the starts each window holds.
+RANDOM_START_KEYS = ("facing", "start_counts")
+_TIME_KEYS = ("rotations", "root_positions", "contacts", "global_positions", "phase")
+
+
+def cut_windows(data: dict, index, shift, window: int, facing_frame: int) -> dict:
+    """Windows of ``window`` frames starting ``shift`` frames into the carried windows ``index``, centred and
+    faced again as the benchmark aligns a window (root x/z mean over its frames subtracted, turned so that
+    its root faces +X at its frame ``facing_frame``).
+
+    data: a random-start dataset (:data:`RANDOM_START_KEYS` and the arrays of :func:`prepare_dataset` with
+    T' >= shift + window frames); index, shift: (B,) int. Returns the :func:`prepare_dataset` arrays of the
+    B windows, (B, window, ...) ("offsets" (B, 1, J, 3)): frame 0 is the start keyframe and frame
+    ``window - 1`` the last frame. Works on numpy and jax arrays (a pure gather plus a rigid turn).
+    """
+    xp = _xp(data["rotations"])
+    index = xp.asarray(index)
+    frames = xp.asarray(shift)[:, None] + xp.arange(int(window))[None, :]  # (B, window)
+    out = {name: data[name][index[:, None], frames] for name in _TIME_KEYS}
+    out["offsets"] = data["offsets"][index]
+    turn = data["facing"][index, frames[:, facing_frame]]  # (B, 4)
+    root = out["root_positions"]
+    mean = xp.mean(root, axis=1)  # (B, 3): only x and z are subtracted
+    centre = mean * xp.asarray([1.0, 0.0, 1.0], dtype=root.dtype)
+    turn_t = turn[:, None, :].astype(root.dtype)
+    out["root_positions"] = R.quat_rotate(turn_t, root - centre[:, None, :])
+    out["global_positions"] = R.quat_rotate(turn_t[:, :, None, :], out["global_positions"] - centre[:, None, None, :])
+    rotations = out["rotations"]
+    root_rotation = R.quat_mul(turn_t, rotations[:, :, 0, :])
+    out["rotations"] = xp.concatenate([root_rotation[:, :, None, :], rotations[:, :, 1:, :]], axis=2)
+    return out
+
+
+def random_start_batch(data: dict, key, batch_size: int, window: int, facing_frame: int) -> dict:
+    """A batch of ``batch_size`` training windows whose start is drawn uniformly (with replacement) from every
+    frame that starts a whole window (data.random_starts): a carried window i with probability
+    start_counts[i] / sum, then a shift uniform in [0, start_counts[i]); cut by :func:`cut_windows` (jax)."""
+    import jax
+
+    counts = data["start_counts"][:, 0].astype(jnp.float32)
+    window_key, shift_key = jax.random.split(key)
+    index = jax.random.categorical(window_key, jnp.log(counts), shape=(batch_size,))
+    chosen = counts[index]
+    shift = jnp.minimum(jnp.floor(jax.random.uniform(shift_key, (batch_size,)) * chosen), chosen - 1).astype(jnp.int32)
+    return cut_windows(data, index, shift, window, facing_frame)

@@ -29,6 +29,7 @@ from stitchjax.windows import (FACING_FRAME, Stats, Windows, clip_moments, clip_
 
 __all__ = [
     "LAFAN1NotFoundError", "Stats", "TRAIN_SUBJECTS", "TEST_SUBJECTS", "list_files", "load_windows",
+    "load_file_windows",
     "train_statistics", "test_windows",
 ]
 
@@ -207,6 +208,17 @@ def load_windows(data_dir, subjects, window: int, offset: int, cache_dir=None) -
     arrays = cache.cached("lafan1-windows", files, params,
                           lambda: _windows_to_arrays(build_windows(files, window, offset)), cache_dir,
                           _CODE)
+    return _arrays_to_windows(arrays)
+
+
+def load_file_windows(files, window: int, offset: int, cache_dir=None) -> Windows:
+    """:func:`load_windows` of the given LAFAN1 files (e.g. the validation takes), cached the same way."""
+    files = sorted((pathlib.Path(f) for f in files), key=lambda p: p.name)
+    if not files:
+        raise LAFAN1NotFoundError("no LAFAN1 files given")
+    params = {"window": int(window), "offset": int(offset), "frame": FACING_FRAME, "feet": list(LAFAN1_FEET)}
+    arrays = cache.cached("lafan1-windows", files, params,
+                          lambda: _windows_to_arrays(build_windows(files, window, offset)), cache_dir, _CODE)
     return _arrays_to_windows(arrays)
 
 

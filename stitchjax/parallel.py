@@ -104,12 +104,15 @@ def local_windows_slice(num_windows: int) -> slice:
     return slice(index, index + per_process * count, count)
 
 
-def sample_batch(dataset: dict, key: jax.Array, batch_size: int, mesh: Mesh, window: int | None = None) -> dict:
+def sample_batch(dataset: dict, key: jax.Array, batch_size: int, mesh: Mesh, window: int | None = None,
+                 draw=None) -> dict:
     """Draw `batch_size` windows uniformly (with replacement) on device; batch sharded over the mesh.
 
     dataset: dict of (N, T, ...) arrays sharded as by `shard_dataset`. window: keep frames [0, window)
     (static; None = all). Within one process the indices come from one key and each device takes its
     slice, so the batch does not depend on the device count. Returns (batch_size, T or window, ...) arrays.
+    draw: `draw(data, key, n) -> batch` replaces the uniform draw of whole windows (random window starts:
+    features.random_start_batch); the window cut applies to its batch.
     """
     num_hosts, per_host_devices = mesh.shape["hosts"], mesh.shape["devices"]
     if batch_size % (num_hosts * per_host_devices):
@@ -122,6 +125,10 @@ def sample_batch(dataset: dict, key: jax.Array, batch_size: int, mesh: Mesh, win
     def local(key, data):
         host = jax.lax.axis_index("hosts")
         device = jax.lax.axis_index("devices")
+        if draw is not None:
+            batch = draw(data, jax.random.fold_in(key, host), host_batch)
+            batch = jax.tree.map(lambda x: jax.lax.dynamic_slice_in_dim(x, device * device_batch, device_batch), batch)
+            return jax.tree.map(lambda x: (x if window is None else x[:, :window]), batch)
         num_local = jax.tree.leaves(data)[0].shape[0]
         indices = jax.random.randint(jax.random.fold_in(key, host), (host_batch,), 0, num_local)
         indices = jax.lax.dynamic_slice_in_dim(indices, device * device_batch, device_batch)

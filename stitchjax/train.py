@@ -44,6 +44,7 @@ from tqdm.auto import tqdm
 from stitchjax import checkpoints, datasets, resume, schedule
 from stitchjax import config as config_lib
 from stitchjax import features, losses, networks, parallel, phase, plots, reporting
+from stitchjax import windows as windows_lib
 
 GENERATORS = ("forward", "backward")
 DISCRIMINATORS = ("disc_short", "disc_long")
@@ -148,9 +149,14 @@ def make_sampler(config, mesh: Mesh | None = None, window: int | None = None):
     mesh = parallel.make_mesh() if mesh is None else mesh
     batch_size = config.train.batch_size
 
+    draw = None
+    if config.data.random_starts:  # any frame starts a window: cut from the carried windows (features.py)
+        def draw(data, key, n):
+            return features.random_start_batch(data, key, n, config.data.window, windows_lib.FACING_FRAME)
+
     def sample(dataset, key, step):
         batch_key = jax.random.split(jax.random.fold_in(key, step), 3)[0]
-        return parallel.sample_batch(dataset, batch_key, batch_size, mesh, window)
+        return parallel.sample_batch(dataset, batch_key, batch_size, mesh, window, draw)
 
     return jax.jit(sample)
 

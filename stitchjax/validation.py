@@ -1,8 +1,9 @@
-"""Validation during training (``train.eval_every``): the evaluation protocol on a few fixed test windows.
+"""Validation during training (``train.eval_every``): the evaluation protocol on a few fixed windows.
 
 Every ``train.eval_every`` steps the current generators sample ``train.eval_samples`` transitions of each of
-``train.eval_windows`` test windows of the dataset (evenly spaced over its benchmark windows, the same
-windows every time) at each length of ``train.eval_lengths``, with z from the prior as at inference, and
+``train.eval_windows`` windows of the validation split (``data.validation_files``: whole training takes held
+out, cut as the test windows; without a split, the dataset's benchmark test windows), evenly spaced, the same
+windows every time, at each length of ``train.eval_lengths``, with z from the prior as at inference, and
 ``stitchjax.evaluate.evaluate_protocol`` scores them. One validation record goes to metrics.jsonl:
 
     {"step": 500, "val_ade_L30": ..., "val_slde_L30": ..., "val_npss_L30": ..., "val_foot_slide_L30": ...,
@@ -57,7 +58,10 @@ def make_validator(config, data_dir, stats_json: dict, facts: dict | None) -> Ca
         return None
     entry = datasets.get(config.data.dataset)
     try:
-        windows, stats = entry.test_windows(entry.data_dir(data_dir), config.data)
+        if config.data.validation_files:
+            windows, stats = datasets.validation_windows(entry.data_dir(data_dir), config.data)
+        else:
+            windows, stats = entry.test_windows(entry.data_dir(data_dir), config.data)
     except FileNotFoundError as error:
         raise FileNotFoundError(f"train.eval_every={tc.eval_every} validates on the dataset's test windows, "
                                 f"which cannot be loaded ({error}); add them to --data or set "

@@ -35,6 +35,7 @@ __all__ = [
     "Windows", "window_starts", "window_indices", "foot_contacts", "contacts_from_displacement",
     "center_and_face", "center_and_face_global", "facing_rotation", "Stats", "window_statistics", "moments",
     "combine_moments", "stats_from_moments", "clip_windows", "clip_moments", "concatenate_clips", "clips_statistics",
+    "mirror_joint_map", "mirror_contact_map", "check_mirror_symmetry", "mirror_arrays", "facing_per_frame",
     "CONTACT_THRESHOLD",
     "FOOT_HEIGHT_THRESHOLD_CM",
     "FACING_FRAME",
@@ -240,7 +241,7 @@ def facing_rotation(root_global_rotation, forward_axis=(0.0, 1.0, 0.0)):
 
 
 def center_and_face(rotations, positions, parents, frame: int = FACING_FRAME,
-                    forward_axis=(0.0, 1.0, 0.0)):
+                    forward_axis=(0.0, 1.0, 0.0), centre_frames: int | None = None):
     """Centre each window on the ground plane and turn it to face +X at ``frame``.
 
     Args:
@@ -249,6 +250,8 @@ def center_and_face(rotations, positions, parents, frame: int = FACING_FRAME,
       parents: parent index per joint (root first; only the root is changed).
       frame: the frame whose root orientation defines "forward" (9 for LAFAN1: the last context frame).
       forward_axis: the root's local axis that points forward (LAFAN1 Hips: +Y).
+      centre_frames: the mean is taken over the first this many frames (None: all of them), so a window
+        carried with extra frames after it is aligned exactly as the window alone.
     Returns:
       (rotations, positions): aligned local transforms, same shapes (new arrays).
 
@@ -270,7 +273,7 @@ def center_and_face(rotations, positions, parents, frame: int = FACING_FRAME,
     if parents[0] != -1:
         raise ValueError("joint 0 must be the root")
     root = positions[..., :, 0, :]  # (..., T, 3), a view
-    mean_xz = np.mean(root[..., :, [0, 2]], axis=-2, keepdims=True)  # (..., 1, 2)
+    mean_xz = np.mean(root[..., :centre_frames, [0, 2]], axis=-2, keepdims=True)  # (..., 1, 2)
     root[..., :, 0] -= mean_xz[..., 0]
     root[..., :, 2] -= mean_xz[..., 1]
     turn = facing_rotation(rotations[..., frame, 0, :], forward_axis)[..., None, :]  # (..., 1, 4)
@@ -303,26 +306,43 @@ def center_and_face_global(global_positions, root_positions, root_rotations, fra
 
 
 def clip_windows(rotations, positions, parents, window: int, offset: int, feet, frame: int = FACING_FRAME,
-                 forward_axis=(0.0, 1.0, 0.0)) -> dict:
+                 forward_axis=(0.0, 1.0, 0.0), extra_frames: int = 0) -> dict:
     """The windows of one clip, cut and aligned as the LAFAN1 benchmark does (see the module docstring).
 
     rotations (T, J, 4) / positions (T, J, 3): the clip's local transforms, file units. feet: the C contact
     joints; frame / forward_axis: as :func:`center_and_face`. Returns {"starts": (N,) int64 start frames,
     "rotations": (N, window, J, 4), "positions": (N, window, J, 3) centred and faced, "contacts": (N, window,
     C) 0./1. on the raw windows}; N = 0 (no FK run) when the clip is not longer than ``window`` frames.
+
+    extra_frames > 0 (random window starts): each window carries the clip's next ``extra_frames`` frames too
+    (arrays of window + extra_frames frames, aligned as the window alone: its first ``window`` frames are the
+    window bit for bit), and "start_counts" (N,) int64 says how many starts ``start + s`` (s = 0, 1, ...) still
+    give a whole window inside the clip (``start + s + window < T``), and "turns" (N, 4) the turn each window
+    was faced by; frames past the clip's end repeat its last frame and are never part of a window. With ``extra_frames = offset - 1`` the windows' starts cover every
+    frame that can start a window (:func:`window_starts` with offset 1).
     """
     starts = window_starts(np.shape(rotations)[0], window, offset)
+    frames = window + int(extra_frames)
     if len(starts) == 0:
         j = np.shape(rotations)[-2]
-        return {"starts": starts, "rotations": np.zeros((0, window, j, 4)), "positions": np.zeros((0, window, j, 3)),
-                "contacts": np.zeros((0, window, len(feet)))}
-    idx = window_indices(starts, window)
+        out = {"starts": starts, "rotations": np.zeros((0, frames, j, 4)), "positions": np.zeros((0, frames, j, 3)),
+               "contacts": np.zeros((0, frames, len(feet)))}
+        return {**out, "start_counts": np.zeros((0,), np.int64)} if extra_frames else out
+    num_frames = np.shape(rotations)[0]
+    idx = np.minimum(window_indices(starts, frames), num_frames - 1)
+    rotations_raw_root = np.asarray(rotations)[:, 0]
     _, global_positions = forward_kinematics(rotations, positions, parents)  # once: a window's FK is a slice
     feet_positions = global_positions[:, list(feet)]
     step = np.sum((feet_positions[1:] - feet_positions[:-1]) ** 2, axis=-1)  # (T-1, C) squared displacements
-    rotations, positions = center_and_face(rotations[idx], positions[idx], parents, frame, forward_axis)
-    return {"starts": starts, "rotations": rotations, "positions": positions,
-            "contacts": contacts_from_displacement(step[idx[:, :-1]])}
+    rotations, positions = center_and_face(rotations[idx], positions[idx], parents, frame, forward_axis,
+                                           centre_frames=window)
+    out = {"starts": starts, "rotations": rotations, "positions": positions,
+           "contacts": contacts_from_displacement(step[np.minimum(idx[:, :-1], num_frames - 2)])}
+    if extra_frames:
+        last = num_frames - window - 1  # the largest start of a whole window
+        out["start_counts"] = np.minimum(int(extra_frames), last - starts) + 1
+        out["turns"] = facing_rotation(rotations_raw_root[starts + frame], forward_axis)
+    return out
 
 
 def clip_moments(rotations, positions, parents, window: int, offset: int, frame: int = FACING_FRAME,
@@ -359,3 +379,91 @@ def clips_statistics(clips) -> Stats:
     for clip in kept:
         total = combine_moments(total, clip["moments"])
     return stats_from_moments(total, kept[0]["first_local_positions"])
+
+
+# ---------------------------------------------------------------------------------------- mirroring
+
+_SIDES = (("Left", "Right"), ("left", "right"), ("LEFT", "RIGHT"), ("L_", "R_"), ("l_", "r_"))
+
+
+def _other_side(name: str) -> str | None:
+    """``name`` with its side prefix swapped (LeftFoot -> RightFoot, L_Hand -> R_Hand); None: no side."""
+    for left, right in _SIDES:
+        if name.startswith(left):
+            return right + name[len(left):]
+        if name.startswith(right):
+            return left + name[len(right):]
+    return None
+
+
+def mirror_joint_map(names) -> np.ndarray:
+    """(J,) int64: the joint each joint becomes in the mirror image, from the names (Left* <-> Right*;
+    a joint without a side prefix maps to itself). ValueError naming a sided joint without its twin."""
+    names = [str(n) for n in names]
+    out = []
+    for j, name in enumerate(names):
+        twin = _other_side(name)
+        if twin is None:
+            out.append(j)
+        elif twin in names:
+            out.append(names.index(twin))
+        else:
+            raise ValueError(f"data.mirror: joint {name!r} has no twin {twin!r} on the other side; mirroring "
+                             "needs Left*/Right* joints in pairs (or set data.mirror=false)")
+    return np.asarray(out, np.int64)
+
+
+def mirror_contact_map(feet, joint_map) -> np.ndarray:
+    """(C,) int64: the contact channel each channel becomes in the mirror image (LAFAN1: [2, 3, 0, 1])."""
+    feet = [int(f) for f in feet]
+    try:
+        return np.asarray([feet.index(int(joint_map[f])) for f in feet], np.int64)
+    except ValueError:
+        raise ValueError(f"data.mirror: the contact joints {feet} are not closed under left/right mirroring "
+                         "(each foot joint's twin must be a contact joint too)") from None
+
+
+_MIRROR_QUAT = np.array([1.0, -1.0, -1.0, 1.0])  # reflection z -> -z: (w, x, y, z) -> (w, -x, -y, z)
+_MIRROR_POS = np.array([1.0, 1.0, -1.0])
+
+
+def check_mirror_symmetry(offsets, joint_map, names, tolerance: float = 0.01) -> None:
+    """ValueError unless the skeleton is its own mirror image: each joint's bone offset (J, 3), reflected
+    across z in its parent's frame, is its twin's up to ``tolerance`` x the bone's length (+ 0.01 unit).
+    Mirroring reflects every joint's frame across z, which keeps +Y (up) and +X (the faced forward)."""
+    offsets = np.asarray(offsets, np.float64)
+    mirrored = offsets[joint_map] * _MIRROR_POS
+    error = np.linalg.norm(mirrored[1:] - offsets[1:], axis=-1)
+    limit = tolerance * np.linalg.norm(offsets[1:], axis=-1) + 0.01
+    bad = np.flatnonzero(error > limit) + 1
+    if len(bad):
+        j = int(bad[0])
+        raise ValueError(f"data.mirror: the skeleton is not left/right symmetric across its z axis: joint "
+                         f"{names[j]!r} offset {np.round(offsets[j], 3).tolist()} against its twin's mirror image "
+                         f"{np.round(mirrored[j], 3).tolist()}; set data.mirror=false for this skeleton")
+
+
+def mirror_arrays(rotations, positions, contacts, joint_map, contact_map):
+    """The left/right mirror image of aligned windows: reflection across the vertical plane z = 0 of the
+    world and of every joint's frame (quaternions (w, -x, -y, z), positions (x, y, -z)), then joints and
+    contact channels swapped by ``joint_map`` / ``contact_map``. rotations (..., J, 4), positions (..., J, 3),
+    contacts (..., C). Only sign flips and a swap: mirroring twice gives the input back bit for bit, and a
+    window faced to +X and centred stays so."""
+    rotations = np.asarray(rotations)
+    positions = np.asarray(positions)
+    return ((rotations * _MIRROR_QUAT.astype(rotations.dtype))[..., joint_map, :],
+            (positions * _MIRROR_POS.astype(positions.dtype))[..., joint_map, :],
+            np.asarray(contacts)[..., contact_map])
+
+
+def facing_per_frame(root_rotations, forward_axis=(0.0, 1.0, 0.0), turns=None) -> np.ndarray:
+    """(N, T, 4): for each frame t of aligned windows (root rotations (N, T, 4), faced by ``turns`` (N, 4);
+    None: not turned), the rotation F_t that faces the window at frame t when applied to the aligned root:
+    F_t = facing_rotation(raw root at t) * turn^-1, so F_t * aligned = facing_rotation(raw) * raw, the
+    benchmark's aligned root with its sign (random window starts re-face a cut window with it)."""
+    q = np.asarray(root_rotations, np.float64)
+    if turns is None:
+        return facing_rotation(q, forward_axis)
+    undo = R.quat_conjugate(np.asarray(turns, np.float64))[:, None, :]
+    raw = R.quat_mul(undo, q)
+    return R.quat_mul(facing_rotation(raw, forward_axis), np.broadcast_to(undo, raw.shape))

@@ -202,3 +202,116 @@ def test_clip_windows_and_their_statistics_agree_with_the_window_functions():
     np.testing.assert_allclose(stats.offsets, direct.offsets, atol=1e-9)
     with pytest.raises(ValueError, match="no clip"):
         clips_statistics([clip_moments(rot, pos, LAFAN1_PARENTS, 50, 8) for rot, pos in clips])
+
+
+# ----------------------------------------------------------------------------- random starts, mirroring
+
+
+def _prepared(rng, frames=70, window=12, offset=5, extra_frames=0):
+    """A random clip's (carried) windows as the training arrays, in float64 (no phase labels needed)."""
+    from stitchjax import features, windows as windows_lib
+    from stitchjax.config import Config, DataConfig
+
+    rot, pos = random_motion(rng, (frames,))
+    cut = clip_windows(rot, pos, LAFAN1_PARENTS, window, offset, LAFAN1_FEET, frame=3, extra_frames=extra_frames)
+    n, t = cut["rotations"].shape[:2]
+    windows = Windows(cut["rotations"], cut["positions"], cut["contacts"], lafan1_skeleton(pos[0]), 30.0,
+                      [str(i) for i in range(n)])
+    data = features.prepare_dataset(windows, None, Config(data=DataConfig(window=window, offset=offset)),
+                                    phase_labels=np.zeros((n, t, 8)))
+    _, global_positions = forward_kinematics(cut["rotations"], cut["positions"], LAFAN1_PARENTS)
+    data.update(rotations=cut["rotations"], root_positions=cut["positions"][:, :, 0],
+                global_positions=global_positions)  # float64 for exact comparisons
+    data["facing"] = windows_lib.facing_per_frame(cut["rotations"][:, :, 0], turns=cut.get("turns"))
+    return rot, pos, cut, data
+
+
+def test_carried_windows_start_with_the_plain_windows_and_count_every_start():
+    rng = np.random.default_rng(11)
+    rot, pos, cut, _ = _prepared(rng, frames=70, window=12, offset=5, extra_frames=4)
+    plain = clip_windows(rot, pos, LAFAN1_PARENTS, 12, 5, LAFAN1_FEET, frame=3)
+    np.testing.assert_array_equal(cut["rotations"][:, :12], plain["rotations"])
+    np.testing.assert_array_equal(cut["positions"][:, :12], plain["positions"])
+    np.testing.assert_array_equal(cut["contacts"][:, :11], plain["contacts"][:, :11])
+    starts = (cut["starts"][:, None] + np.arange(5)[None, :])[np.arange(5)[None, :] < cut["start_counts"][:, None]]
+    np.testing.assert_array_equal(np.sort(starts), window_starts(70, 12, 1))  # every start, each once
+
+
+def test_a_random_start_window_is_the_window_at_that_frame_with_its_keyframes_first_and_last():
+    """cut_windows(i, s) equals the benchmark window starting at frame starts[i] + s (centred over it, faced at
+    its frame 3): its first frame is that start keyframe and its last frame the frame window - 1 later."""
+    from stitchjax import features
+
+    rng = np.random.default_rng(12)
+    window, offset = 12, 5
+    rot, pos, cut, data = _prepared(rng, frames=70, window=window, offset=offset, extra_frames=offset - 1)
+    index = np.array([0, 1, 2, len(cut["starts"]) - 1, 3])
+    shift = np.minimum(np.array([0, 3, 4, 4, 1]), cut["start_counts"][index] - 1)
+    got = features.cut_windows(data, index, shift, window, facing_frame=3)
+    begin = cut["starts"][index] + shift
+    expected_rot, expected_pos = center_and_face(rot[window_indices(begin, window)], pos[window_indices(begin, window)],
+                                                 LAFAN1_PARENTS, 3)
+    np.testing.assert_allclose(got["rotations"], expected_rot, atol=1e-9)
+    np.testing.assert_allclose(got["root_positions"], expected_pos[:, :, 0], atol=1e-8)
+    _, expected_global = forward_kinematics(expected_rot, expected_pos, LAFAN1_PARENTS)
+    np.testing.assert_allclose(got["global_positions"], expected_global, atol=1e-8)
+    # the keyframes: the window's first and last frames are the clip's frames begin and begin + window - 1
+    for k, b in enumerate(begin):
+        first, last = expected_rot[k, 0, 1:], expected_rot[k, -1, 1:]
+        np.testing.assert_array_equal(first, rot[b, 1:])
+        np.testing.assert_array_equal(last, rot[b + window - 1, 1:])
+        np.testing.assert_allclose(got["rotations"][k, [0, -1], 1:], rot[[b, b + window - 1], 1:], atol=1e-12)
+
+
+def test_random_start_batch_draws_every_start_uniformly_on_device():
+    import jax
+    import jax.numpy as jnp
+
+    from stitchjax import features
+
+    rng = np.random.default_rng(13)
+    _, _, cut, data = _prepared(rng, frames=40, window=12, offset=5, extra_frames=4)
+    data = {k: jnp.asarray(v, jnp.float32) for k, v in data.items()}
+    data["start_counts"] = jnp.asarray(cut["start_counts"], jnp.int32)[:, None]
+    batch = jax.jit(lambda d, k: features.random_start_batch(d, k, 4000, 12, 3))(data, jax.random.PRNGKey(0))
+    assert batch["rotations"].shape == (4000, 12, J, 4) and batch["offsets"].shape == (4000, 1, J, 3)
+    assert set(batch) == {"rotations", "root_positions", "contacts", "global_positions", "phase", "offsets"}
+    # root rotation at the facing frame faces +X: its forward (local +Y) has no z component
+    forward = R.quat_rotate(np.asarray(batch["rotations"][:, 3, 0], np.float64), np.array([0.0, 1.0, 0.0]))
+    assert np.abs(forward[:, 2]).max() < 1e-4 and forward[:, 0].min() > 0
+    np.testing.assert_allclose(np.mean(np.asarray(batch["root_positions"])[:, :, [0, 2]], axis=1), 0.0, atol=1e-3)
+
+
+def test_mirroring_twice_gives_the_window_back_bit_for_bit_and_swaps_sides():
+    from stitchjax import windows as windows_lib
+    from stitchjax.skeleton import LAFAN1_JOINTS
+
+    rng = np.random.default_rng(14)
+    rot, pos = random_motion(rng, (3, 9))
+    contacts = rng.integers(0, 2, size=(3, 9, 4)).astype(np.float64)
+    joint_map = windows_lib.mirror_joint_map(LAFAN1_JOINTS)
+    contact_map = windows_lib.mirror_contact_map(LAFAN1_FEET, joint_map)
+    names = list(LAFAN1_JOINTS)
+    assert names[joint_map[names.index("LeftToe")]] == "RightToe" and joint_map[names.index("Spine1")] == names.index("Spine1")
+    np.testing.assert_array_equal(contact_map, [2, 3, 0, 1])
+    once = windows_lib.mirror_arrays(rot, pos, contacts, joint_map, contact_map)
+    twice = windows_lib.mirror_arrays(*once, joint_map, contact_map)
+    for a, b in zip(twice, (rot, pos, contacts)):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(once[2][..., 0], contacts[..., 2])  # the left foot's contact was the right's
+    # the mirror image's FK positions are the original's reflected across z = 0, with the sides swapped
+    _, g = forward_kinematics(rot, pos, LAFAN1_PARENTS)
+    _, gm = forward_kinematics(once[0], once[1], LAFAN1_PARENTS)
+    np.testing.assert_allclose(gm, (g * np.array([1.0, 1.0, -1.0]))[..., joint_map, :], atol=1e-9)
+
+
+def test_mirroring_refuses_an_asymmetric_skeleton_and_unpaired_names():
+    from stitchjax import windows as windows_lib
+    from stitchjax.skeleton import LAFAN1_JOINTS
+
+    with pytest.raises(ValueError, match="no twin"):
+        windows_lib.mirror_joint_map(["Hips", "LeftLeg"])
+    offsets = np.zeros((J, 3))
+    offsets[1:] = [1.0, 2.0, 3.0]  # both legs on the same side
+    with pytest.raises(ValueError, match="not left/right symmetric"):
+        windows_lib.check_mirror_symmetry(offsets, windows_lib.mirror_joint_map(LAFAN1_JOINTS), LAFAN1_JOINTS)

@@ -1,0 +1,52 @@
+"""The release recipe on a 2-core CPU, trained from scratch in one command (resumable: run it again):
+
+    bin/train --config lafan1_cpu_release --workdir runs/release --data ../shared/data/lafan1
+
+lafan1_cpu's model and schedule, with the data of the training subjects used as the paper does not:
+
+- a validation split of whole training takes (`data.validation_files`, ~14 % of the training frames: a fall,
+  floor work and obstacle locomotion), held out of training; `train.eval_every` scores it, never the test set;
+- the 72 extra clips of subjects 1-4 (`data.extra_train_dirs`, relative to --data: ../lafan1_filtered60, 60 fps
+  with a root bone above Hips, conformed on load: every second frame, the root folded into Hips);
+- random window starts (`data.random_starts`) and left/right mirroring (`data.mirror`);
+
+and the extensions of the previous from-scratch recipe (`lafan1_cpu_mixed`, pinned here value by value): the KL
+weight at 0.1 with 1 free nat and a 500-step warm-up, half of each batch rolled out from the prior, the foot-skate
+term on either end's height at 128, the foot-velocity term at 16, contact outputs that pass gradients as inputs,
+every length drawn after the schedule, and the learning rate decayed. Those were measured better than the
+paper's loss on earlier test-set figures; they are NOT yet chosen on the validation split (an ablation on it
+is still to be run), so treat them as the inherited recipe, not a validated choice.
+"""
+from stitchjax.config import variant
+
+VALIDATION_TAKES = "fallAndGetUp1_subject1,ground1_subject4,obstacles1_subject2"
+
+get_config = variant(
+    "lafan1_cpu",
+    # data
+    f"data.validation_files={VALIDATION_TAKES}",
+    "data.extra_train_dirs=../lafan1_filtered60",
+    "data.random_starts=true",
+    "data.mirror=true",
+    # the lafan1_cpu_mixed extensions, each value pinned
+    "model.contact_input_gradient=true",
+    "loss.kl_weight=0.1",
+    "loss.free_bits=1.0",
+    "loss.kl_warmup_steps=500",
+    "loss.prior_sample_fraction=0.5",
+    "loss.foot_skate_contacts=height_either",
+    "loss.foot_skate_weight=128",
+    "loss.foot_velocity_weight=16",
+    "train.length_after_schedule=uniform",
+    # schedule: ~2.4x the windows of lafan1_cpu_mixed (extra clips, mirroring), so ~3x its steps
+    "train.learning_rate=5e-4",
+    "train.lr_decay_to=0.05",
+    "train.lr_decay_from_step=18000",
+    "train.lr_decay_until_step=42000",
+    "train.max_steps=48000",
+    "train.checkpoint_every_steps=250",
+    "train.eval_every=1000",
+    "train.eval_windows=64",
+    "train.eval_lengths=30,50",
+    name="lafan1_cpu_release",
+)
