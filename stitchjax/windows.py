@@ -327,7 +327,7 @@ def clip_windows(rotations, positions, parents, window: int, offset: int, feet, 
         j = np.shape(rotations)[-2]
         out = {"starts": starts, "rotations": np.zeros((0, frames, j, 4)), "positions": np.zeros((0, frames, j, 3)),
                "contacts": np.zeros((0, frames, len(feet)))}
-        return {**out, "start_counts": np.zeros((0,), np.int64)} if extra_frames else out
+        return {**out, "start_counts": np.zeros((0,), np.int64), "turns": np.zeros((0, 4))} if extra_frames else out
     num_frames = np.shape(rotations)[0]
     idx = np.minimum(window_indices(starts, frames), num_frames - 1)
     rotations_raw_root = np.asarray(rotations)[:, 0]
