@@ -23,7 +23,7 @@ __all__ = [
     "DataConfig", "ModelConfig", "LossConfig", "TrainConfig", "PhaseConfig", "Config",
     "load_config", "apply_overrides", "to_dict", "from_dict", "save_config", "read_config",
     "configs_dir", "ConfigError", "variant", "CHOICES", "POSTERIOR_ONLY_FIELDS", "inert_fields",
-    "check_overrides_take_effect",
+    "check_overrides_take_effect", "EXTENSIONS", "extensions_on",
 ]
 
 
@@ -437,6 +437,43 @@ def apply_overrides(config: Config, overrides) -> Config:
 
 
 # ---------------------------------------------------------------------------------------------
+# Extensions: what the paper does not have
+
+
+# Every mechanism the paper does not have, as "section.field": the field's dataclass default is the paper's
+# behaviour (the mechanism off), so `configs/lafan1.py` (the defaults) trains the paper's objective, Eq. 9 with
+# its weights. A recipe turns an extension on by setting the field; `extensions_on` names those a config sets.
+EXTENSIONS = (
+    # data: the paper trains on every window of subjects 1-4, starting every 20 frames, unmirrored
+    "data.validation_files", "data.extra_train_dirs", "data.random_starts", "data.mirror",
+    # model
+    "model.keyframe_velocity", "model.noise_correlation", "model.posterior_horizon",
+    # loss: terms and weightings beyond Eq. 9
+    "loss.kl_warmup_steps", "loss.free_bits", "loss.prior_kl_weight", "loss.prior_rollout",
+    "loss.prior_sample_fraction", "loss.prior_sample_reconstruction_weight", "loss.prior_best_of",
+    "loss.foot_skate_weight", "loss.foot_skate_contacts", "loss.foot_velocity_weight",
+    "loss.near_keyframe_weight", "loss.near_keyframe_frames",
+    # train: the paper keeps the learning rate constant and trains at max_length once the schedule reaches it
+    "train.lr_decay_to", "train.lr_decay_from_step", "train.lr_decay_until_step", "train.length_after_schedule",
+)
+
+
+def _default(section: str, field: str):
+    cls = type(getattr(Config(), section))
+    return next(f.default for f in dataclasses.fields(cls) if f.name == field)
+
+
+def extensions_on(config: Config) -> tuple:
+    """The :data:`EXTENSIONS` ("section.field") that ``config`` sets away from the paper's value (the default)."""
+    on = []
+    for name in EXTENSIONS:
+        section, field = name.split(".")
+        if getattr(getattr(config, section), field) != _default(section, field):
+            on.append(name)
+    return tuple(on)
+
+
+# ---------------------------------------------------------------------------------------------
 # Serialisation
 
 
@@ -451,23 +488,15 @@ def to_dict(config: Config) -> dict:
 FINE_TUNABLE_MODEL_FIELDS = ("keyframe_velocity", "noise_correlation", "posterior_horizon")
 
 
-# What a config saved before a field existed meant: such a checkpoint restores as it was trained.
-LEGACY_VALUES = {
-    ("model", "posterior"): "none",
-    ("model", "z_every_layer"): False,
-    ("model", "decoder_uses_lstm"): True,
-    ("model", "gamma_schedule"): "transition",
-    ("model", "contact_input_gradient"): True,
-    ("phase", "include_reversed"): False,
-}
 # Fields that were removed (read nowhere); ignored when a saved config has them.
 RETIRED_FIELDS = {("train", "length_counts_keyframes"), ("train", "output_dir")}
 
 
 def from_dict(d: dict) -> Config:
-    """Inverse of :func:`to_dict`. Unknown keys raise ConfigError; missing keys take their
-    :data:`LEGACY_VALUES` entry (the behaviour before the field existed), else the default."""
-    kwargs = {}
+    """Inverse of :func:`to_dict`. Unknown keys raise ConfigError. A missing field of :data:`EXTENSIONS` takes
+    its default (the paper's behaviour, which is also what a run did before the field existed); any other
+    missing field raises ConfigError naming the fields to add (with the values the run was trained with)."""
+    kwargs, missing = {}, []
     classes = {f.name: f.default_factory for f in dataclasses.fields(Config) if f.name in _SECTIONS}
     for key, value in d.items():
         if key == "name":
@@ -477,8 +506,8 @@ def from_dict(d: dict) -> Config:
             raise ConfigError(f"unknown config section {key!r}")
         cls = classes[key]
         types_ = _field_types(cls)
-        fields = {name: legacy for (sec, name), legacy in LEGACY_VALUES.items()
-                  if sec == key and name not in value}
+        fields = {}
+        missing += [f"{key}.{name}" for name in types_ if name not in value and f"{key}.{name}" not in EXTENSIONS]
         for name, v in value.items():
             if (key, name) in RETIRED_FIELDS:
                 continue
@@ -489,6 +518,10 @@ def from_dict(d: dict) -> Config:
                 v = tuple(v)
             fields[name] = v
         kwargs[key] = cls(**fields)
+    if missing:
+        raise ConfigError(f"the saved config lacks {', '.join(missing)}: add {'it' if len(missing) == 1 else 'them'} "
+                          "to the config JSON with the values the run was trained with (a field outside "
+                          "config.EXTENSIONS has no value that is sure to mean what the run did)")
     return Config(**kwargs)
 
 

@@ -4,7 +4,8 @@ Overall (paper Eq. 9, weights in ``config.loss``)::
 
     L = L_state + 1.0 L_kl + 0.5 L_stitch + 0.5 L_fk + 0.1 L_D + 0.1 L_G
 
-Optional, not in the paper: ``loss.foot_skate_weight`` x :func:`foot_skate_loss` and
+Every mechanism beyond Eq. 9 is off by default and named in ``config.EXTENSIONS`` (``config.extensions_on``
+says which a config turns on). Optional, not in the paper: ``loss.foot_skate_weight`` x :func:`foot_skate_loss` and
 ``loss.foot_velocity_weight`` x :func:`foot_velocity_loss`; ``loss.prior_best_of`` rolls the prior windows out
 several times and scores only the copy nearest the ground truth in the state and FK terms
 (:func:`prior_copies`, :func:`best_of_weights`).
@@ -76,7 +77,7 @@ def state_loss(pred, true, mask, loss_config):
 
 def kl_loss(mu, logvar, mask, reduction: str = "sum"):
     """Paper Eq. 5: KL(N(mu, exp(logvar)) || N(0, I)) per frame (sum or mean over latent dims), mean over valid
-    frames. The objective's KL term with ``model.posterior="none"`` (on the blended prior, docs/design.md §5.5)."""
+    frames. With ``model.posterior="none"`` the objective's L_kl is this term on the sampling distribution p."""
     kl = 0.5 * (jnp.square(mu) + jnp.exp(logvar) - 1.0 - logvar)
     per_frame = jnp.sum(kl, axis=-1) if reduction == "sum" else jnp.mean(kl, axis=-1)
     return masked_mean(per_frame, mask)
@@ -89,7 +90,8 @@ def gaussian_kl(mu_q, logvar_q, mu_p, logvar_p, reduction: str = "sum"):
 
 
 def posterior_kl_loss(out_dir, mask, free_bits: float = 0.0, reduction: str = "sum"):
-    """KL(q || p) of one direction: q the posterior, p the latent-interpolation prior (``mu_blend``), per frame.
+    """Paper Eq. 5 as read with a posterior (DESIGN.md §5): KL(q || p) of one direction, q the posterior, p the
+    latent-interpolation prior (``mu_blend``), per frame; the objective's L_kl with ``model.posterior="next_frame"``.
 
     Returns (raw, penalised): the mean over valid frames of the KL, and of max(KL, free_bits) (free bits:
     below ``free_bits`` nats per frame the term has no gradient, so q keeps that much information)."""

@@ -39,7 +39,7 @@ def test_bad_overrides_raise_clear_errors(bad, words):
 
 
 def test_posterior_only_fields_are_named_inert_and_refused_as_overrides_with_posterior_none():
-    cpu = C.load_config("lafan1_cpu")
+    cpu = C.apply_overrides(C.load_config("lafan1_cpu"), ["loss.free_bits=1", "loss.prior_sample_fraction=0.5"])
     assert C.inert_fields(cpu) == ()  # with a posterior every field acts
     none = C.apply_overrides(cpu, ["model.posterior=none"])
     assert set(C.inert_fields(none)) == {"loss.free_bits", "loss.prior_sample_fraction"}  # the config's own values
@@ -94,3 +94,47 @@ def test_override_choices_match_what_the_networks_accept():
         networks.blend_gaussians(0.0, 0.0, 1.0, 0.0, 0.5, mode)  # accepted
     with pytest.raises(ValueError):
         networks.blend_gaussians(0.0, 0.0, 1.0, 0.0, 0.5, "both")
+
+
+def test_the_paper_configs_turn_no_extension_on_and_every_extension_is_a_field():
+    fields = {f"{s}.{f.name}" for s in ("data", "model", "loss", "train")
+              for f in dataclasses.fields(getattr(C.Config(), s))}
+    assert set(C.EXTENSIONS) <= fields and len(set(C.EXTENSIONS)) == len(C.EXTENSIONS)
+    assert C.extensions_on(C.load_config("lafan1")) == ()
+    assert C.extensions_on(C.load_config("quickstart")) == () and C.extensions_on(C.load_config("tiny")) == ()
+    cpu = C.load_config("lafan1_cpu")  # the paper at CPU widths, with the validation split held out
+    assert C.extensions_on(cpu) == ("data.validation_files",)
+    assert (cpu.loss.kl_weight, cpu.loss.stitch_weight, cpu.loss.fk_weight, cpu.loss.gen_weight) == (1.0, 0.5, 0.5, 0.1)
+    assert cpu.loss == C.load_config("lafan1").loss and cpu.model.posterior == "next_frame"
+    on = C.extensions_on(C.apply_overrides(cpu, ["loss.foot_velocity_weight=16", "data.mirror=true"]))
+    assert on == ("data.validation_files", "data.mirror", "loss.foot_velocity_weight")
+    release = C.extensions_on(C.load_config("lafan1_cpu_release"))
+    assert {"data.random_starts", "data.mirror", "data.extra_train_dirs", "loss.foot_skate_weight"} <= set(release)
+
+
+def test_a_saved_config_lacking_a_field_outside_the_extensions_is_refused_naming_it():
+    saved = C.to_dict(C.load_config("tiny"))
+    for name in ("noise_correlation", "posterior_horizon"):  # extensions: their default is the paper's (off)
+        del saved["model"][name]
+    del saved["data"]["mirror"]
+    assert C.from_dict(saved) == C.load_config("tiny")
+    del saved["model"]["posterior"], saved["phase"]["include_reversed"]
+    with pytest.raises(C.ConfigError, match="lacks model.posterior, phase.include_reversed: add them"):
+        C.from_dict(saved)
+
+
+def test_the_validation_takes_of_every_config_are_training_files_never_test_files(shared_data):
+    from stitchjax import datasets, lafan1
+
+    data_dir = shared_data / "lafan1"
+    test_stems = {p.name.split(".")[0] for p in lafan1.list_files(data_dir)["subject5"]}
+    for name in ("lafan1_cpu", "lafan1_cpu_release"):
+        data = C.load_config(name).data
+        files = datasets.validation_files(data_dir, data)
+        stems = {p.name.split(".")[0] for p in files}
+        assert stems == set(data.validation_files) and not stems & test_stems
+        assert all(any(s.endswith("_" + subject) for subject in data.train_subjects) for s in stems)
+    for bad in ("obstacles1_subject5", "walk4_subject1,ground1_subject5"):
+        data = C.apply_overrides(C.load_config("lafan1_cpu"), [f"data.validation_files={bad}"]).data
+        with pytest.raises(ValueError, match="is a test file"):
+            datasets.validation_files(data_dir, data)

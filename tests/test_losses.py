@@ -257,3 +257,73 @@ def test_height_either_contacts_hold_a_foot_that_lands_from_the_air():
     np.testing.assert_array_equal(np.asarray(either) >= np.asarray(start_only), True)
     assert float(LS.foot_skate_loss(landing, start_only, mask, feet, 100.0, up_axis=1)) == 0.0
     assert float(LS.foot_skate_loss(landing, either, mask, feet, 100.0, up_axis=1)) > 0
+
+
+def _hand_l1_mean(diff, mask, axes):
+    """sum |diff| over `axes`, then the mean over the frames where mask (float64 numpy) is set."""
+    per_frame = np.sum(np.abs(diff), axis=axes)
+    return float(np.sum(per_frame * mask) / max(np.sum(mask), 1.0))
+
+
+@pytest.mark.parametrize("posterior", ["next_frame", "none"])
+def test_with_every_extension_off_the_objective_is_eq9_term_for_term(setup, posterior):
+    """L = L_state + 1.0 L_kl + 0.5 L_stitch + 0.5 L_fk + 0.1 L_G (Eq. 9 without L_D, which only the
+    discriminators minimise), each term recomputed here by hand in float64 numpy from one rollout of the
+    tiny model: Eq. 4 (beta 1, 1, 0.1), Eq. 5 (KL to the prior p with the posterior, KL(p || N(0, I)) without),
+    Eq. 3, Eq. 6, Eq. 7, the forward and backward terms averaged."""
+    config, params, phase_params, batch = setup
+    config = C.apply_overrides(config, [f"model.posterior={posterior}"])
+    assert C.extensions_on(config) == ()
+    lc, dc = config.loss, config.data
+    assert ((lc.beta_rotation, lc.beta_velocity, lc.beta_contact), lc.kl_weight, lc.stitch_weight, lc.fk_weight,
+            lc.gen_weight) == ((1.0, 1.0, 0.1), 1.0, 0.5, 0.5, 0.1)
+    length = 7
+    out, sampled = LS.generator_rollouts(params, phase_params, batch, jax.random.PRNGKey(3), config, jnp.int32(length))
+    total, terms, _ = LS.generator_objective(params, out, sampled, batch, jnp.int32(length), lc, config.model, dc)
+    assert sampled is out and not {"foot_skate", "foot_velocity"} & set(terms)
+
+    f64 = lambda x: np.asarray(x, np.float64)  # noqa: E731
+    truth = {k: f64(v) for k, v in batch.items()}
+    state, kl, fk = [], [], []
+    for name in ("forward", "backward"):
+        o = {k: f64(v) for k, v in out[name].items()}
+        mask = o["mask"].astype(np.float64)
+        n = mask.shape[1]
+        i = np.arange(n)
+        frames = np.clip(length - i, 0, None) if name == "backward" else np.minimum(i + 1, batch["rotations"].shape[1] - 1)
+        before = (length + 1 - i) if name == "backward" else i  # the frame each step starts from
+        rotations, contacts = truth["rotations"][:, frames], truth["contacts"][:, frames]
+        velocities = (truth["root_positions"][:, frames] - truth["root_positions"][:, before]) / dc.velocity_scale
+        state.append(_hand_l1_mean(o["rotations"] - rotations, mask, (-2, -1))
+                     + _hand_l1_mean(o["velocities"] - velocities, mask, -1)
+                     + 0.1 * _hand_l1_mean(o["contacts"] - contacts, mask, -1))
+        fk.append(_hand_l1_mean((o["global_positions"] - truth["global_positions"][:, frames]) / dc.position_scale,
+                                mask, (-2, -1)))
+        mu_p, logvar_p = o["mu_blend"], o["logvar_blend"]
+        if posterior == "none":  # KL(p || N(0, I))
+            per_frame = 0.5 * np.sum(mu_p ** 2 + np.exp(logvar_p) - 1.0 - logvar_p, axis=-1)
+        else:  # KL(q || p), q the posterior
+            mu_q, logvar_q = o["mu_posterior"], o["logvar_posterior"]
+            per_frame = 0.5 * np.sum(logvar_p - logvar_q + (np.exp(logvar_q) + (mu_q - mu_p) ** 2) / np.exp(logvar_p)
+                                     - 1.0, axis=-1)
+        kl.append(float(np.sum(per_frame * mask) / mask.sum()))
+    overlap = {k: f64(v) for k, v in out["overlap"].items()}
+    stitch = _hand_l1_mean((overlap["forward_positions"] - overlap["backward_positions"]) / dc.position_scale,
+                           overlap["mask"].astype(np.float64), (-2, -1))
+    # Eq. 7 on the stitched motion's discriminator features: positions relative to the root, root velocity
+    positions, root, motion_mask = f64(out["global_positions"]), f64(out["root_positions"]), f64(out["mask"])
+    rel = ((positions[:, :, 1:] - positions[:, :, :1]) / dc.position_scale).reshape(positions.shape[:2] + (-1,))
+    velocity = np.concatenate([np.zeros_like(root[:, :1]), np.diff(root, axis=1)], axis=1) / dc.velocity_scale
+    features = jnp.asarray(np.concatenate([rel, velocity], axis=-1), jnp.float32)
+    adv = 0.0
+    for which in ("disc_short", "disc_long"):
+        scores = f64(N.make_discriminator(config.model, which).apply(params[which], features))
+        window = config.model.disc_short_window if which == "disc_short" else config.model.disc_long_window
+        valid = (np.arange(scores.shape[1])[None, :] + window <= motion_mask.sum(1, keepdims=True)).astype(np.float64)
+        adv += 0.5 * float(np.sum((scores - 1.0) ** 2 * valid) / valid.sum())
+    hand = {"state": np.mean(state), "kl": np.mean(kl), "stitch": stitch, "fk": np.mean(fk), "adv_g": adv}
+    for name, value in hand.items():
+        np.testing.assert_allclose(float(terms[name]), value, rtol=2e-5, atol=1e-7, err_msg=name)
+    eq9 = hand["state"] + 1.0 * hand["kl"] + 0.5 * hand["stitch"] + 0.5 * hand["fk"] + 0.1 * hand["adv_g"]
+    np.testing.assert_allclose(float(total), eq9, rtol=2e-5)
+    assert hand["kl"] > 0 and hand["stitch"] > 0 and hand["adv_g"] > 0

@@ -143,12 +143,17 @@ def test_interpolation_weight_runs_from_zero_to_one_in_each_direction():
     assert legacy_last == pytest.approx(n_fwd / 49) and legacy_last < 0.6
 
 
-def test_configs_saved_before_the_posterior_load_as_they_were_trained():
+def test_configs_saved_before_the_posterior_are_refused_naming_the_fields_to_add():
     saved = C.to_dict(C.load_config("tiny"))
     for name in ("posterior", "z_every_layer", "decoder_uses_lstm", "gamma_schedule"):
         del saved["model"][name]
     del saved["phase"]["include_reversed"]
     saved["train"]["length_counts_keyframes"] = False  # a removed field
+    with pytest.raises(C.ConfigError, match="lacks model.posterior, model.z_every_layer, model.decoder_uses_lstm, "
+                                            "model.gamma_schedule, phase.include_reversed"):
+        C.from_dict(json.loads(json.dumps(saved)))
+    saved["model"].update(posterior="none", z_every_layer=False, decoder_uses_lstm=True, gamma_schedule="transition")
+    saved["phase"]["include_reversed"] = False
     old = C.from_dict(json.loads(json.dumps(saved)))
     assert (old.model.posterior, old.model.z_every_layer, old.model.decoder_uses_lstm,
             old.model.gamma_schedule, old.phase.include_reversed) == ("none", False, True, "transition", False)

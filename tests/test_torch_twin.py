@@ -27,10 +27,11 @@ TINY = ["model.encoder_widths=32,32,16", "model.lstm_size=32", "model.latent_dim
         "train.max_length=12", "train.batch_size=3"]
 
 # (config name, overrides, train step for the KL warm-up): the defaults (config.py) and the lafan1_cpu
-# reproduction config (contact gradient on, KL weight 0.1, free bits, KL warm-up at step 100 of 500, the
-# foot-skate term; its prior samples pinned off, which the twin does not mirror), each with the posterior
-# and without it; then the branches neither of them takes.
-CPU_TWIN = ["loss.prior_sample_fraction=0"]
+# reproduction config as its runs were trained (contact gradient on, KL weight 0.1, free bits, KL warm-up at
+# step 100 of 500, the foot-skate term; prior samples off, which the twin does not mirror), each with the
+# posterior and without it; then the branches neither of them takes.
+CPU_TWIN = ["model.contact_input_gradient=true", "loss.kl_weight=0.1", "loss.free_bits=1.0", "loss.kl_warmup_steps=500",
+            "loss.foot_skate_weight=8.0", "loss.prior_sample_fraction=0"]
 CASES = {
     "lafan1": ("lafan1", [], 0),
     "lafan1_posterior_none": ("lafan1", ["model.posterior=none"], 0),

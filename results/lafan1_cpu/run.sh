@@ -8,6 +8,10 @@
 set -euo pipefail
 DATA=${DATA:-../shared/data/lafan1}
 OUT=results/lafan1_cpu
+# These runs were made when lafan1_cpu set these fields (it is the paper's loss with a validation split since
+# 2026-12-04); every --config lafan1_cpu below passes them first, so later overrides still win:
+CPU_BEFORE_PAPER="model.contact_input_gradient=true loss.kl_weight=0.1 loss.free_bits=1.0 loss.kl_warmup_steps=500"
+CPU_BEFORE_PAPER="$CPU_BEFORE_PAPER loss.prior_sample_fraction=0.5 loss.foot_skate_weight=8.0 data.validation_files="
 # The runs before "scratch" were made when lafan1_cpu had no prior samples and no foot-skate term:
 BEFORE="loss.prior_sample_fraction=0 loss.foot_skate_weight=0"
 # What the fine-tunes found, from step 0 in scratch_mixed (with a learning-rate decay: the config lafan1_cpu_mixed):
@@ -45,7 +49,7 @@ fine_tune_lr() {  # fine_tune_lr FROM UNTIL: the fine-tunes' learning rate, 1e-4
 }
 prior_kl_pair_fine_tune() {  # the options of every 2400-step fine-tune of the committed prior-KL pair (step 30400
   # to 32800): the fine-tunes' learning rate, the recipe and the two frames next to each keyframe weighted at 64
-  echo "--config lafan1_cpu --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE" \
+  echo "--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress --max-steps 32800 $(fine_tune_lr 30400 32800) $RECIPE" \
     "loss.near_keyframe_frames=2 loss.near_keyframe_weight=64"
 }
 case "${1:-}" in
@@ -54,12 +58,12 @@ case "${1:-}" in
     # side on the same 2 cores at nice -n 10 (results/README.md, "From scratch"). The runs were stopped by
     # SIGTERM and resumed (same state: tests/test_train.py) to add the decay at the steps named here.
     DECAY="train.lr_decay_to=0.1 train.lr_decay_from_step=5000 train.lr_decay_until_step=8000"
-    bin/train --config lafan1_cpu --workdir runs/repro --data "$DATA" --no-progress --max-steps 8000 $DECAY &
-    bin/train --config lafan1_cpu --workdir runs/none --data "$DATA" --no-progress --max-steps 8000 $DECAY \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/repro --data "$DATA" --no-progress --max-steps 8000 $DECAY &
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/none --data "$DATA" --no-progress --max-steps 8000 $DECAY \
       model.posterior=none &
     until [ -d runs/repro/checkpoints/2000 ]; do sleep 10; done
     mkdir -p runs/base2000/checkpoints && cp -r runs/repro/checkpoints/2000 runs/base2000/checkpoints/
-    bin/train --config lafan1_cpu --init-from runs/base2000 --workdir runs/height32 --data "$DATA" --no-progress \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --init-from runs/base2000 --workdir runs/height32 --data "$DATA" --no-progress \
       --max-steps 8000 $DECAY loss.foot_skate_contacts=height loss.foot_skate_weight=32 &
     wait
     ;;
@@ -79,7 +83,7 @@ case "${1:-}" in
     ;;
   finetune_scratch)  # fewer prior samples: two fine-tunes of height32 (step 8000) side by side at 0.3 x the
     # learning rate, stopped by SIGTERM after ~2000 steps (at steps 10036 and 10159), then evaluated
-    FT="--config lafan1_cpu --init-from runs/height32 --data $DATA --no-progress --max-steps 11000"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --init-from runs/height32 --data $DATA --no-progress --max-steps 11000"
     LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=32"
     LR="train.lr_decay_to=0.3 train.lr_decay_from_step=8000 train.lr_decay_until_step=8001"
     bin/train $FT --workdir runs/h32_prior25 $LOSS $LR loss.prior_sample_fraction=0.25 &
@@ -96,7 +100,7 @@ case "${1:-}" in
     # with prior samples again from there. 0.3 x the learning rate to step 9500, then a linear decay to 0.1 x at
     # step 10500. The runs were stopped by SIGTERM at steps 8116-8119 and resumed with these step counts (same
     # state: tests/test_train.py); skate128 was stopped by SIGTERM just after step 9500 to add the decay.
-    FT="--config lafan1_cpu --data $DATA --no-progress"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress"
     BASE=$OUT/scratch/models/height32
     LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=32"
     LR="train.lr_decay_to=0.3 train.lr_decay_from_step=8000 train.lr_decay_until_step=8001"
@@ -120,7 +124,7 @@ case "${1:-}" in
     # cont128 (nothing changes: the control), recon25 (loss.prior_sample_reconstruction_weight=0.25) and skate512
     # (foot-skate weight 512); 0.3 x the learning rate to step 11500, then a linear decay meant to reach 0.1 x at
     # 12500; all three were stopped by SIGTERM just after step 12000 (0.2 x there) to leave time to evaluate them
-    FT="--config lafan1_cpu --data $DATA --no-progress --init-from runs/late128 --max-steps 12500"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress --init-from runs/late128 --max-steps 12500"
     LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=128"
     LR="train.learning_rate=1.5e-4 train.lr_decay_to=0.3333 train.lr_decay_from_step=11500 train.lr_decay_until_step=12500"
     bin/train $FT --workdir runs/cont128 $LOSS $LR &
@@ -139,7 +143,7 @@ case "${1:-}" in
     # feet slid most inside the stitch overlap). Started with the decay to end at step 15000; stopped by SIGTERM at
     # steps 12895-12903 and resumed (same state: tests/test_train.py) with it ending at step 14500 instead, to leave
     # time to evaluate (the learning rate stepped from 0.78 to 0.73 x 1e-4 there).
-    FT="--config lafan1_cpu --data $DATA --no-progress"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress"
     BASE=$OUT/late_prior/models/skate512
     LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=512"
     LR="train.learning_rate=1e-4 train.lr_decay_to=0.25 train.lr_decay_from_step=12003"
@@ -175,7 +179,7 @@ case "${1:-}" in
     # weight 0.25 (wide512's recipe); it was stopped at step 14962 for fvel32, which adds the foot velocity term
     # (loss.foot_velocity_weight=32: about the foot-skate term's share of the loss) once the feet were seen to jump in the first generated frame
     # (results/error_frames.py); fvel32 started 500 steps after the other two
-    FT="--config lafan1_cpu --data $DATA --no-progress"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress"
     BASE=$OUT/from_skate512/models/decay512
     LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=512"
     LR="train.learning_rate=5e-5 train.lr_decay_to=0.5 train.lr_decay_from_step=14500 train.lr_decay_until_step=16600"
@@ -187,7 +191,7 @@ case "${1:-}" in
   either512)  # decay512 continued as the runs above with the foot-skate term weighing a movement by the foot's height
     # at either end (loss.foot_skate_contacts=height_either), started alone after them and stopped by SIGTERM
     # (the step is in results/README.md), then evaluated as they were
-    FT="--config lafan1_cpu --data $DATA --no-progress"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress"
     LR="train.learning_rate=5e-5 train.lr_decay_to=0.5 train.lr_decay_from_step=14500 train.lr_decay_until_step=16600"
     bin/train $FT --init-from $OUT/from_skate512/models/decay512 --workdir runs/either512 --max-steps 16600 $LR \
       loss.foot_skate_contacts=height_either loss.foot_skate_weight=512
@@ -197,7 +201,7 @@ case "${1:-}" in
     # drawn uniformly from 5-50 (train.length_after_schedule=uniform; decay512 trained at L = 50 only since step
     # ~1500): the foot-skate term on height contacts (against more512), on either end (against either512), and
     # either end with the foot velocity term at 16; three side by side at nice -n 10
-    FT="--config lafan1_cpu --data $DATA --no-progress --init-from $OUT/from_skate512/models/decay512 --max-steps 16600"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress --init-from $OUT/from_skate512/models/decay512 --max-steps 16600"
     LR="train.learning_rate=5e-5 train.lr_decay_to=0.5 train.lr_decay_from_step=14500 train.lr_decay_until_step=16600"
     MIX="train.length_after_schedule=uniform loss.foot_skate_weight=512"
     bin/train $FT --workdir runs/mixed512 $LR $MIX loss.foot_skate_contacts=height &
@@ -211,7 +215,7 @@ case "${1:-}" in
     # nothing (the control); near8 weighs each direction's first two generated frames x8 in the state and FK terms
     # (loss.near_keyframe_weight: the last generated frame is what SLDE scores); recon25 scores the windows drawn
     # from the prior at reconstruction weight 0.25 (the samples spread more: late_prior/recon25)
-    FT="--config lafan1_cpu --data $DATA --no-progress --init-from $OUT/mixed_lengths/models/mixed_either_fvel16"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress --init-from $OUT/mixed_lengths/models/mixed_either_fvel16"
     FT="$FT --max-steps 18400"
     LR="train.learning_rate=2.5e-5 train.lr_decay_to=0.5 train.lr_decay_from_step=16600 train.lr_decay_until_step=18400"
     MIX="train.length_after_schedule=uniform loss.foot_skate_weight=512 loss.foot_skate_contacts=height_either"
@@ -228,14 +232,14 @@ case "${1:-}" in
     # schedule, the foot-skate term on either end's height at 128, the foot velocity term at 16; alone on the 2
     # cores (nice -n 10). Stopped by SIGTERM at step 4616 and resumed (same state: tests/test_train.py) with the
     # learning rate decaying from step 6000 to 0.05 x at 14000, to step 16000 (the config lafan1_cpu_mixed)
-    RUN="--config lafan1_cpu --workdir runs/scratch_mixed --data $DATA --no-progress --max-steps 16000"
+    RUN="--config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/scratch_mixed --data $DATA --no-progress --max-steps 16000"
     bin/train $RUN $RECIPE
     bin/train $RUN $RECIPE train.lr_decay_to=0.05 train.lr_decay_from_step=6000 train.lr_decay_until_step=14000
     ;;
   scratch_mixed_none)  # the same recipe with the posterior "none" (the paper's model: z from the prior heads at
     # training too), in one go (the learning-rate schedule is a function of the step), for the like-for-like
     # ablation; beside from_scratch_mixed on the same 2 cores (nice -n 10)
-    bin/train --config lafan1_cpu --workdir runs/scratch_mixed_none --data "$DATA" --no-progress --max-steps 16000 \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/scratch_mixed_none --data "$DATA" --no-progress --max-steps 16000 \
       $RECIPE train.lr_decay_to=0.05 train.lr_decay_from_step=6000 train.lr_decay_until_step=14000 model.posterior=none
     ;;
   from_scratch_mixed)  # three continuations of scratch_mixed/models/scratch_mixed (step 16000) to step 18400, side
@@ -243,7 +247,7 @@ case "${1:-}" in
     # scratch_mixed stopped): sm_cont changes nothing (the control); sm_fb4 raises free bits from 1 to 4 nats per
     # frame (the posterior must carry more, to buy spread); sm_near8 weighs each direction's first two generated
     # frames x8 (SLDE)
-    FT="--config lafan1_cpu --data $DATA --no-progress --init-from $OUT/scratch_mixed/models/scratch_mixed"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress --init-from $OUT/scratch_mixed/models/scratch_mixed"
     FT="$FT --max-steps 18400"
     LR=$(fine_tune_lr 16000 18400)
     bin/train $FT --workdir runs/sm_cont $LR $RECIPE &
@@ -268,7 +272,7 @@ case "${1:-}" in
     ;;
   near32)  # sm_near8 (step 18400) continued to step 20800 with the weight near the keyframes at 32, the same
     # learning-rate profile (1e-4 down to 2.5e-5); alone at nice -n 5 after a test run; then every length
-    bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/sm_near8 \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/sm_near8 \
       --max-steps 20800 --workdir runs/sm_near32 $(fine_tune_lr 18400 20800) $RECIPE loss.near_keyframe_weight=32 \
       loss.near_keyframe_frames=2
     all_lengths from_scratch_mixed sm_near32
@@ -277,7 +281,7 @@ case "${1:-}" in
     # (nice -n 10), the same learning-rate profile: n32_cont changes nothing (the control); n32_skate256 doubles
     # the foot-skate weight (foot slide at L = 45 / 50); n64_skate256 also doubles the weight near the keyframes
     # (SLDE at L = 45 / 50)
-    FT="--config lafan1_cpu --data $DATA --no-progress --init-from runs/sm_near32 --max-steps 23200"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress --init-from runs/sm_near32 --max-steps 23200"
     LR=$(fine_tune_lr 20800 23200)
     NEAR="loss.near_keyframe_frames=2 loss.near_keyframe_weight"
     bin/train $FT --workdir runs/n32_cont $LR $RECIPE $NEAR=32 &
@@ -289,7 +293,7 @@ case "${1:-}" in
   near64)  # runs/n32_cont (step 23200, from near32_skate) continued to step 25600, two side by side
     # (nice -n 10), the same learning-rate profile: n32_cont2 changes nothing (the control); n64 doubles the
     # weight near the keyframes (SLDE at L = 45)
-    FT="--config lafan1_cpu --data $DATA --no-progress --init-from runs/n32_cont --max-steps 25600"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress --init-from runs/n32_cont --max-steps 25600"
     LR=$(fine_tune_lr 23200 25600)
     NEAR="loss.near_keyframe_frames=2 loss.near_keyframe_weight"
     bin/train $FT --workdir runs/n32_cont2 $LR $RECIPE $NEAR=32 &
@@ -299,7 +303,7 @@ case "${1:-}" in
     ;;
   near64_more)  # runs/n64 (step 25600, from near64) continued to step 28000 with nothing changed, alone at
     # nice -n 5, the same learning-rate profile; then every length
-    bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from runs/n64 --max-steps 28000 \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --data "$DATA" --no-progress --init-from runs/n64 --max-steps 28000 \
       --workdir runs/n64_more $(fine_tune_lr 25600 28000) $RECIPE loss.near_keyframe_frames=2 \
       loss.near_keyframe_weight=64
     all_lengths from_scratch_mixed n64_more
@@ -322,7 +326,7 @@ case "${1:-}" in
     ;;
   recon25_n64)  # the committed n64_more (step 28000) continued to step 30400 with the prior windows' state and FK
     # terms weighted 0.25 (spread), alone, the same learning-rate profile; then every length
-    bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/n64_more \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/n64_more \
       --max-steps 30400 --workdir runs/n64_recon25 $(fine_tune_lr 28000 30400) $RECIPE loss.near_keyframe_frames=2 \
       loss.near_keyframe_weight=64 loss.prior_sample_reconstruction_weight=0.25
     all_lengths from_scratch_mixed n64_recon25
@@ -332,8 +336,8 @@ case "${1:-}" in
     # three times and scores only the copy nearest the ground truth (loss.prior_best_of=3); then every length
     N64="--init-from $OUT/from_scratch_mixed/models/n64_more --max-steps 30400 $(fine_tune_lr 28000 30400) $RECIPE"
     N64="$N64 loss.near_keyframe_frames=2 loss.near_keyframe_weight=64"
-    nice -n 10 bin/train --config lafan1_cpu --data "$DATA" --no-progress --workdir runs/n64_cont $N64 &
-    nice -n 10 bin/train --config lafan1_cpu --data "$DATA" --no-progress --workdir runs/n64_best3 $N64 \
+    nice -n 10 bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --data "$DATA" --no-progress --workdir runs/n64_cont $N64 &
+    nice -n 10 bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --data "$DATA" --no-progress --workdir runs/n64_best3 $N64 \
       loss.prior_best_of=3 &
     wait
     all_lengths from_scratch_mixed n64_cont n64_best3
@@ -341,14 +345,14 @@ case "${1:-}" in
   rho95_n64)  # the committed n64_more (step 28000) continued to step 30400 with the latent noise correlated from
     # frame to frame at training and sampling (model.noise_correlation=0.95), the same learning-rate profile (the
     # control is best_of_n64's n64_cont); then every length
-    bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/n64_more \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/n64_more \
       --max-steps 30400 --workdir runs/n64_rho95 $(fine_tune_lr 28000 30400) $RECIPE loss.near_keyframe_frames=2 \
       loss.near_keyframe_weight=64 model.noise_correlation=0.95
     all_lengths from_scratch_mixed n64_rho95
     ;;
   rho95_best3_n64)  # rho95_n64 with each prior window rolled out three times, only the copy nearest the ground
     # truth scored by the state and FK terms (loss.prior_best_of=3); it went beside rho95_n64 (its control)
-    bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/n64_more \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --data "$DATA" --no-progress --init-from $OUT/from_scratch_mixed/models/n64_more \
       --max-steps 30400 --workdir runs/n64_rho95_best3 $(fine_tune_lr 28000 30400) $RECIPE \
       loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 model.noise_correlation=0.95 loss.prior_best_of=3
     all_lengths from_scratch_mixed n64_rho95_best3
@@ -357,7 +361,7 @@ case "${1:-}" in
     # profile, with the posterior shown the frame 16 steps ahead instead of the next one (model.posterior_horizon;
     # the control is best_of_n64's n64_cont); then every length. A run at k = 8 went beside it and beside
     # scratch_mixed_none, and was stopped at step 29225 (its training curves were the control's)
-    nice -n 10 bin/train --config lafan1_cpu --data "$DATA" --no-progress \
+    nice -n 10 bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --data "$DATA" --no-progress \
       --init-from $OUT/from_scratch_mixed/models/n64_more --max-steps 30400 --workdir runs/n64_h16 $(fine_tune_lr 28000 30400) $RECIPE loss.near_keyframe_frames=2 \
       loss.near_keyframe_weight=64 model.posterior_horizon=16
     all_lengths from_scratch_mixed n64_h16
@@ -389,7 +393,7 @@ case "${1:-}" in
   prior25_n64)  # the committed n64_more (step 28000) continued to step 30400 with a quarter of every batch rolled
     # out from the prior instead of half (loss.prior_sample_fraction=0.25), the same learning-rate profile (the
     # control is best_of_n64's n64_cont); then every length, independent noise and correlated, ramped at x1 and x2.5
-    nice -n 10 bin/train --config lafan1_cpu --data "$DATA" --no-progress \
+    nice -n 10 bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --data "$DATA" --no-progress \
       --init-from $OUT/from_scratch_mixed/models/n64_more --max-steps 30400 --workdir runs/n64_prior25 \
       $(fine_tune_lr 28000 30400) $RECIPE loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 \
       loss.prior_sample_fraction=0.25
@@ -403,7 +407,7 @@ case "${1:-}" in
     FROM=$OUT/scratch_mixed/models/scratch_mixed_none; STEP=16000
     for stage in 8:nn_near8 32:nn_near32 32:nn_n32 64:nn_n64 64:n64_more_none; do
       weight=${stage%%:*}; run=${stage#*:}
-      nice -n 5 bin/train --config lafan1_cpu --data "$DATA" --no-progress --init-from $FROM \
+      nice -n 5 bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --data "$DATA" --no-progress --init-from $FROM \
         --max-steps $((STEP + 2400)) --workdir runs/$run $(fine_tune_lr $STEP $((STEP + 2400))) $RECIPE \
         loss.near_keyframe_frames=2 loss.near_keyframe_weight=$weight model.posterior=none
       FROM=runs/$run; STEP=$((STEP + 2400))
@@ -427,7 +431,7 @@ case "${1:-}" in
     # at nice -n 5, the same learning-rate profile (the control is best_of_n64's n64_cont); then every length,
     # independent noise and correlated, ramped at x1 and x2.5
     for weight in 0.01 0.1; do
-      nice -n 5 bin/train --config lafan1_cpu --data "$DATA" --no-progress \
+      nice -n 5 bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --data "$DATA" --no-progress \
         --init-from $OUT/from_scratch_mixed/models/n64_more --max-steps 30400 --workdir runs/n64_pkl$weight \
         $(fine_tune_lr 28000 30400) $RECIPE loss.near_keyframe_frames=2 loss.near_keyframe_weight=64 \
         loss.prior_kl_weight=$weight &
@@ -440,7 +444,7 @@ case "${1:-}" in
     # continued to step 30400 with both (n64_pkl0.02_s256), and the like-for-like "none" (n64_more_none continued
     # with the foot-skate weight at 256: prior_kl_weight is inert there); two side by side at nice -n 5, the same
     # learning-rate profile; then every length, independent noise and correlated, ramped at x1 and x2.5
-    FT="--config lafan1_cpu --data $DATA --no-progress --max-steps 30400 $(fine_tune_lr 28000 30400) $RECIPE"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress --max-steps 30400 $(fine_tune_lr 28000 30400) $RECIPE"
     FT="$FT loss.near_keyframe_frames=2 loss.near_keyframe_weight=64"
     M=$OUT/from_scratch_mixed/models
     nice -n 5 bin/train $FT --init-from $M/n64_more --workdir runs/n64_pkl0.02_s256 loss.prior_kl_weight=0.02 \
@@ -646,33 +650,33 @@ case "${1:-}" in
     done
     ;;
   train)  # the three runs went side by side on the same 2 cores (nice -n 10); see results/README.md
-    bin/train --config lafan1_cpu --workdir runs/cvae_noprior --data "$DATA" --no-progress $BEFORE  # the reproduction model
-    bin/train --config lafan1_cpu --workdir runs/none --data "$DATA" --no-progress $BEFORE model.posterior=none
-    bin/train --config lafan1_cpu --workdir runs/cvae --data "$DATA" --no-progress $BEFORE loss.prior_rollout=true
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/cvae_noprior --data "$DATA" --no-progress $BEFORE  # the reproduction model
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/none --data "$DATA" --no-progress $BEFORE model.posterior=none
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/cvae --data "$DATA" --no-progress $BEFORE loss.prior_rollout=true
     ;;
   train_long)  # the reproduction run continued, a learning-rate decay, and two loss changes from step 5566
     # (results/README.md, "Longer training, a learning-rate decay, a foot-skate term"); runs/cvae_noprior
     # must hold its step-3000 checkpoint. Stopping and resuming gives the same state (tests/test_train.py).
     cp -r runs/cvae_noprior runs/cvae_long
-    bin/train --config lafan1_cpu --workdir runs/cvae_long --data "$DATA" --no-progress $BEFORE --max-steps 5566
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/cvae_long --data "$DATA" --no-progress $BEFORE --max-steps 5566
     mkdir -p runs/base5566/checkpoints && cp -r runs/cvae_long/checkpoints/5566 runs/base5566/checkpoints/
-    bin/train --config lafan1_cpu --workdir runs/cvae_long --data "$DATA" --no-progress $BEFORE --max-steps 8372
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/cvae_long --data "$DATA" --no-progress $BEFORE --max-steps 8372
     mkdir -p runs/cvae_8372/checkpoints && cp -r runs/cvae_long/checkpoints/8372 runs/cvae_8372/checkpoints/
-    bin/train --config lafan1_cpu --workdir runs/cvae_long --data "$DATA" --no-progress $BEFORE --max-steps "${LONG_STEPS:?}" \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/cvae_long --data "$DATA" --no-progress $BEFORE --max-steps "${LONG_STEPS:?}" \
       train.lr_decay_to=0.1 train.lr_decay_from_step=8372 train.lr_decay_until_step=10872
-    bin/train --config lafan1_cpu --workdir runs/kl05 --init-from runs/base5566 --data "$DATA" --no-progress $BEFORE \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/kl05 --init-from runs/base5566 --data "$DATA" --no-progress $BEFORE \
       --max-steps 6536 loss.kl_weight=0.5
-    bin/train --config lafan1_cpu --workdir runs/footskate --init-from runs/base5566 --data "$DATA" --no-progress $BEFORE \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/footskate --init-from runs/base5566 --data "$DATA" --no-progress $BEFORE \
       --max-steps 7079 loss.foot_skate_weight=4
     mkdir -p runs/footskate_7079/checkpoints && cp -r runs/footskate/checkpoints/7079 runs/footskate_7079/checkpoints/
-    bin/train --config lafan1_cpu --workdir runs/footskate --data "$DATA" --no-progress $BEFORE --max-steps "${SKATE_STEPS:?}" \
+    bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/footskate --data "$DATA" --no-progress $BEFORE --max-steps "${SKATE_STEPS:?}" \
       loss.foot_skate_weight=4 train.lr_decay_to=0.1 train.lr_decay_from_step=7079 train.lr_decay_until_step=9579
     ;;
   finetune)  # three fine-tunes of the reproduction model (runs/cvae_long, step 10930) side by side, 1500 steps
     # each at 0.3 x the learning rate: the control, prior samples in a quarter of each batch, the same with
     # the foot-skate term, then prior samples in half of each batch, with and without it (results/README.md,
     # "Prior samples at training"); at nice -n 10, two or three at a time, beside the evaluations
-    FT="--config lafan1_cpu --init-from runs/cvae_long --data $DATA --no-progress --max-steps ${FT_STEPS:-12430}"
+    FT="--config lafan1_cpu $CPU_BEFORE_PAPER --init-from runs/cvae_long --data $DATA --no-progress --max-steps ${FT_STEPS:-12430}"
     LR="$BEFORE train.lr_decay_to=0.3 train.lr_decay_from_step=10930 train.lr_decay_until_step=10931"
     bin/train $FT --workdir runs/ft_control $LR loss.prior_sample_fraction=0 &
     bin/train $FT --workdir runs/ft_prior25 $LR loss.prior_sample_fraction=0.25 &
