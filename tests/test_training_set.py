@@ -131,3 +131,39 @@ def test_random_start_training_set_carries_every_start_and_trains(sample_copy, t
     assert int(data["start_counts"].sum()) == 2 * (frames - files * 14)  # every start, mirrored too
     summary = train.train(config, tmp_path / "run", max_steps=2, dataset=data, stats=stats, progress=False)
     assert summary["step"] == 2 and np.isfinite(summary["final"]["loss"])
+
+
+def _evaluate_cli():
+    import importlib.machinery
+    import importlib.util
+
+    loader = importlib.machinery.SourceFileLoader("bin_evaluate", str(REPO / "bin" / "evaluate"))
+    spec = importlib.util.spec_from_loader("bin_evaluate", loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+def test_bin_evaluate_split_validation_scores_the_models_validation_takes(sample_copy, tmp_path, capsys):
+    import jax
+
+    from stitchjax import checkpoints, train
+
+    cli = _evaluate_cli()
+    for split_files, run in (("walk4_subject1", tmp_path / "with_split"), ("", tmp_path / "without")):
+        config = C.apply_overrides(C.load_config("tiny"), [f"data.validation_files={split_files}"])
+        state = train.create_train_state(config, jax.random.PRNGKey(0))
+        manager = checkpoints.open_manager(run, async_save=False)
+        checkpoints.save(manager, 0, state, C.to_dict(config), {"config_name": "tiny"})
+        checkpoints.close(manager)
+    out = tmp_path / "validation.json"
+    args = ["model", "--data", str(sample_copy), "--split", "validation", "--samples", "1", "--lengths", "5",
+            "--noise-scales", "", "--json", str(out)]
+    assert cli.main(["model", "--checkpoint", str(tmp_path / "with_split"), *args[1:]]) == 0
+    import json
+
+    results = json.loads(out.read_text())
+    windows, _ = datasets.validation_windows(sample_copy, tiny("data.validation_files=walk4_subject1").data)
+    assert results["split"] == "validation" and results["n_windows"] == windows.num_windows
+    assert cli.main(["model", "--checkpoint", str(tmp_path / "without"), *args[1:]]) == 2
+    assert "has no data.validation_files" in capsys.readouterr().err
