@@ -234,7 +234,8 @@ class TrainConfig:
     # schedule projects to 91.5 h bucketed vs 109.7 h masked (1.2x). () = masked (quickstart: compile
     # dominates a short run)
     eval_every: int = 0  # reason: > 0 runs stitchjax.validation every this many steps (bin/train; 0 = off)
-    eval_windows: int = 32  # reason: validation windows (data.validation_files, else test windows) validated (evenly spaced, the same every time): cheap
+    eval_windows: int = 32  # reason: windows validated (of data.validation_files, else the test windows;
+    # evenly spaced, the same every time): cheap
     eval_lengths: tuple = (30,)  # reason: the paper's mid length; (30, 50) adds the long one
     eval_samples: int = 4  # reason: enough for APD and a stable mean ADE on 32 windows
 

@@ -315,11 +315,13 @@ def clip_windows(rotations, positions, parents, window: int, offset: int, feet, 
     C) 0./1. on the raw windows}; N = 0 (no FK run) when the clip is not longer than ``window`` frames.
 
     extra_frames > 0 (random window starts): each window carries the clip's next ``extra_frames`` frames too
-    (arrays of window + extra_frames frames, aligned as the window alone: its first ``window`` frames are the
-    window bit for bit), and "start_counts" (N,) int64 says how many starts ``start + s`` (s = 0, 1, ...) still
-    give a whole window inside the clip (``start + s + window < T``), and "turns" (N, 4) the turn each window
-    was faced by; frames past the clip's end repeat its last frame and are never part of a window. With ``extra_frames = offset - 1`` the windows' starts cover every
-    frame that can start a window (:func:`window_starts` with offset 1).
+    (arrays of window + extra_frames frames, aligned as the window alone: the rotations and positions of its
+    first ``window`` frames are the window's bit for bit; the contacts of the window's last frame come from the
+    clip's next frame instead of repeating the frame before). "start_counts" (N,) int64 says how many starts
+    ``start + s`` (s = 0, 1, ...) still give a whole window inside the clip (``start + s + window < T``) and
+    "turns" (N, 4) is the turn each window was faced by; frames past the clip's end repeat its last frame and
+    are never part of a window. With ``extra_frames = offset - 1`` the windows' starts cover every frame that
+    can start a window (:func:`window_starts` with offset 1).
     """
     starts = window_starts(np.shape(rotations)[0], window, offset)
     frames = window + int(extra_frames)

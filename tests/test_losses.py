@@ -290,7 +290,8 @@ def test_with_every_extension_off_the_objective_is_eq9_term_for_term(setup, post
         mask = o["mask"].astype(np.float64)
         n = mask.shape[1]
         i = np.arange(n)
-        frames = np.clip(length - i, 0, None) if name == "backward" else np.minimum(i + 1, batch["rotations"].shape[1] - 1)
+        last = batch["rotations"].shape[1] - 1
+        frames = np.clip(length - i, 0, None) if name == "backward" else np.minimum(i + 1, last)
         before = (length + 1 - i) if name == "backward" else i  # the frame each step starts from
         rotations, contacts = truth["rotations"][:, frames], truth["contacts"][:, frames]
         velocities = (truth["root_positions"][:, frames] - truth["root_positions"][:, before]) / dc.velocity_scale

@@ -1,5 +1,4 @@
 """The training set with the data.* options: validation split, extra training folders, random starts, mirroring."""
-import gzip
 import os
 import pathlib
 import shutil
@@ -11,7 +10,6 @@ import pytest
 
 from stitchjax import bvh, datasets, sample
 from stitchjax import config as C
-from stitchjax import rotations as R
 from stitchjax.skeleton import LAFAN1_JOINTS, LAFAN1_PARENTS, forward_kinematics
 
 REPO = pathlib.Path(__file__).resolve().parent.parent

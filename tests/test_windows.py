@@ -292,7 +292,8 @@ def test_mirroring_twice_gives_the_window_back_bit_for_bit_and_swaps_sides():
     joint_map = windows_lib.mirror_joint_map(LAFAN1_JOINTS)
     contact_map = windows_lib.mirror_contact_map(LAFAN1_FEET, joint_map)
     names = list(LAFAN1_JOINTS)
-    assert names[joint_map[names.index("LeftToe")]] == "RightToe" and joint_map[names.index("Spine1")] == names.index("Spine1")
+    assert names[joint_map[names.index("LeftToe")]] == "RightToe"
+    assert joint_map[names.index("Spine1")] == names.index("Spine1")
     np.testing.assert_array_equal(contact_map, [2, 3, 0, 1])
     once = windows_lib.mirror_arrays(rot, pos, contacts, joint_map, contact_map)
     twice = windows_lib.mirror_arrays(*once, joint_map, contact_map)
