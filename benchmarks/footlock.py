@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import os
 import pathlib
-import statistics
 import sys
 import time
 
@@ -33,13 +32,7 @@ except ImportError:
 DEFAULT_CHECKPOINT = "results/lafan1_cpu/from_scratch_mixed/models/pkv128"
 
 
-def _time(fn, runs: int) -> tuple[float, float]:
-    times = []
-    for _ in range(runs):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), min(times)
+from inference import _time  # noqa: E402  (median and best of the runs, as the sampler's benchmark)
 
 
 def main(argv=None) -> int:
