@@ -4,8 +4,6 @@ another scale, extra joints, transition lengths beyond training, and the CLI's u
 All rollouts use the tiny model's (length 8, 4 candidates), as tests/test_inbetween.py does, so the
 sampler compiles once."""
 import dataclasses
-import importlib.machinery
-import importlib.util
 import os
 import pathlib
 import subprocess
@@ -17,6 +15,8 @@ import pytest
 from stitchjax import bvh, conform, features, inbetween, rotations as R, sample, takes, trained_model
 from stitchjax import config as config_lib
 from stitchjax.skeleton import Skeleton
+
+from bin_scripts import load_cli
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 LENGTH, SAMPLES = 8, 4
@@ -189,9 +189,7 @@ def _cli(*args):
 
 def _cli_here(capsys, *args):
     """bin/inbetween's main() in this process (no interpreter or jax start-up): (exit status, stderr)."""
-    loader = importlib.machinery.SourceFileLoader("bin_inbetween", str(REPO / "bin" / "inbetween"))
-    module = importlib.util.module_from_spec(importlib.util.spec_from_loader(loader.name, loader))
-    loader.exec_module(module)
+    module = load_cli("inbetween")
     try:
         code = module.main([str(a) for a in args])
     except SystemExit as exit_:  # argparse's own errors
@@ -237,9 +235,7 @@ def test_cli_target_from_another_take_with_offset_and_turn(tiny_run, tmp_path):
 
 
 def test_cli_negative_offsets_parse_and_a_too_fast_target_is_refused(tiny_run, tmp_path, capsys):
-    loader = importlib.machinery.SourceFileLoader("bin_inbetween", str(REPO / "bin" / "inbetween"))
-    module = importlib.util.module_from_spec(importlib.util.spec_from_loader(loader.name, loader))
-    loader.exec_module(module)
+    module = load_cli("inbetween")
     argv = ["--checkpoint", "c", "--bvh", "b", "--start-frame", "1", "--target-bvh", "t", "--target-frame", "2",
             "--target-offset", "-89.3,0,728.2", "--out", "o"]
     args = module.build_parser().parse_args(module._join_negative_values(argv))

@@ -3,8 +3,6 @@ both keyframes exact; loading restores no optimiser or train state; the float16 
 checkpoint it came from; bin/inbetween without --checkpoint uses it."""
 import dataclasses
 import fnmatch
-import importlib.machinery
-import importlib.util
 import json
 import os
 import pathlib
@@ -18,6 +16,8 @@ import pytest
 
 import stitchjax
 from stitchjax import bvh, checkpoints, inbetween, sample, takes, trained_model
+
+from bin_scripts import load_cli
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 RELEASE = REPO / "stitchjax" / "models" / trained_model.RELEASE_MODEL
@@ -37,14 +37,6 @@ def release():
 @pytest.fixture(scope="module")
 def take():
     return bvh.load(sample.sample_files(["subject5"])[0])
-
-
-def _load_export_cli():
-    loader = importlib.machinery.SourceFileLoader("bin_export", str(REPO / "bin" / "export"))
-    spec = importlib.util.spec_from_loader("bin_export", loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
 
 
 def test_release_model_loads_samples_and_keeps_both_keyframes_exact(release, take):
@@ -122,7 +114,7 @@ def test_loading_restores_only_the_sampling_parameters(tiny_run, monkeypatch):
 
 
 def test_export_round_trip_and_clear_errors(tiny_run, tmp_path, capsys):
-    cli = _load_export_cli()
+    cli = load_cli("export")
     out = tmp_path / "exported"
     assert cli.main(["--run", str(tiny_run), "--out", str(out)]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["model.json", "params.msgpack"]

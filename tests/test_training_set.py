@@ -12,6 +12,8 @@ from stitchjax import bvh, datasets, sample
 from stitchjax import config as C
 from stitchjax.skeleton import LAFAN1_JOINTS, LAFAN1_PARENTS, forward_kinematics
 
+from bin_scripts import load_cli
+
 REPO = pathlib.Path(__file__).resolve().parent.parent
 
 
@@ -131,23 +133,12 @@ def test_random_start_training_set_carries_every_start_and_trains(sample_copy, t
     assert summary["step"] == 2 and np.isfinite(summary["final"]["loss"])
 
 
-def _evaluate_cli():
-    import importlib.machinery
-    import importlib.util
-
-    loader = importlib.machinery.SourceFileLoader("bin_evaluate", str(REPO / "bin" / "evaluate"))
-    spec = importlib.util.spec_from_loader("bin_evaluate", loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
-
-
 def test_bin_evaluate_split_validation_scores_the_models_validation_takes(sample_copy, tmp_path, capsys):
     import jax
 
     from stitchjax import checkpoints, train
 
-    cli = _evaluate_cli()
+    cli = load_cli("evaluate")
     for split_files, run in (("walk4_subject1", tmp_path / "with_split"), ("", tmp_path / "without")):
         config = C.apply_overrides(C.load_config("tiny"), [f"data.validation_files={split_files}"])
         state = train.create_train_state(config, jax.random.PRNGKey(0))
