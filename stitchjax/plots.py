@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import os
 import pathlib
+import textwrap
 from typing import Mapping, Sequence
 
 import matplotlib
@@ -254,10 +255,17 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
     data_w, data_h = xmax - xmin + 2 * pad, height + 2 * pad
     # room for the row titles: about 0.065 inch per character at font size 8
     label_w = max(0.7, 0.15 + 0.065 * max(len(str(t)) for t in titles)) if titles else 0.1
-    title_h = 0.3 if title else 0.0
-    if figsize is None:  # rows of row_height inches, width following the data's aspect (and the title's)
-        figsize = (max(label_w + 0.1 + row_height * data_w / data_h, 0.3 + 0.07 * len(title or "")),
-                   row_height * len(motions) + title_h)
+    width = label_w + 0.1 + row_height * data_w / data_h  # inches: rows of row_height, the data's aspect
+    if figsize is None:
+        width = max(width, 4.0)
+    else:
+        width = float(figsize[0])
+    # the title wrapped to the figure's width (about 0.07 inch per character at font size 9)
+    lines = textwrap.wrap(title, max(20, int((width - 0.3) / 0.07))) if title else []
+    title = "\n".join(lines)
+    title_h = 0.1 + 0.17 * len(lines) if lines else 0.0
+    if figsize is None:
+        figsize = (width, row_height * len(motions) + title_h)
     fig = _new_figure(figsize, dpi)
     fig_w, fig_h = fig.get_size_inches()
     row_h = (fig_h - title_h) / len(motions)

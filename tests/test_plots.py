@@ -70,6 +70,15 @@ def test_filmstrip_png_and_colours(tmp_path):
     np.testing.assert_allclose(fixed.get_size_inches() * fixed.dpi, (320, 120))
 
 
+def test_filmstrip_wraps_a_long_title_instead_of_widening_the_figure():
+    motions = [_walk(seed=0)]
+    short = plots.filmstrip(motions, LAFAN1_PARENTS, every=5, title="t")
+    long = plots.filmstrip(motions, LAFAN1_PARENTS, every=5, title="model " * 60)
+    assert long.get_size_inches()[0] == short.get_size_inches()[0]  # the data sets the width
+    assert long.get_size_inches()[1] > short.get_size_inches()[1]  # the title's lines add height
+    assert long._suptitle.get_text().count("\n") >= 2
+
+
 def test_auto_view_looks_at_the_walk_from_the_side():
     along_z = _walk(heading=(0.0, 1.0))
     axis = plots.horizontal_axis(along_z, "auto")
