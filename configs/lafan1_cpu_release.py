@@ -38,13 +38,14 @@ get_config = variant(
     "loss.foot_skate_weight=128",
     "loss.foot_velocity_weight=16",
     "train.length_after_schedule=uniform",
-    # schedule: ~2.4x the windows of lafan1_cpu_mixed (extra clips, mirroring), so ~3x its steps
+    # schedule: 20000 steps, the learning rate decayed over steps 8000-19000; about 2 h of training loop on
+    # 2 CPU cores, so that the whole run fits in one sitting
     "train.learning_rate=5e-4",
     "train.lr_decay_to=0.05",
-    "train.lr_decay_from_step=18000",
-    "train.lr_decay_until_step=42000",
-    "train.max_steps=48000",
-    "train.checkpoint_every_steps=250",
+    "train.lr_decay_from_step=8000",
+    "train.lr_decay_until_step=19000",
+    "train.max_steps=20000",
+    "train.checkpoint_every_steps=500",
     "train.eval_every=1000",
     "train.eval_windows=64",
     "train.eval_lengths=30,50",
