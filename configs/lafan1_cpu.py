@@ -12,7 +12,8 @@ scores, so no choice reads the subject5 test windows. The paper-size `lafan1` co
 Until 2026-12-04 this config also set the KL weight to 0.1 with free bits, a KL warm-up, prior samples and a
 foot-skate term, and had no validation split: the runs in results/lafan1_cpu were trained so
 (results/lafan1_cpu/run.sh passes those values as $CPU_BEFORE_PAPER; each checkpoint's config is saved with it).
-The recipes built on them are `lafan1_cpu_mixed` (the committed scratch_mixed model) and `lafan1_cpu_release`.
+The recipes built on them are `results/lafan1_cpu/scratch_mixed/lafan1_cpu_mixed.py` (the committed scratch_mixed
+model) and `lafan1_cpu_release`.
 """
 import dataclasses
 import pathlib

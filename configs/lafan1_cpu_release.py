@@ -10,7 +10,8 @@ lafan1_cpu's model and schedule, with the data of the training subjects used as 
   with a root bone above Hips, conformed on load: every second frame, the root folded into Hips);
 - random window starts (`data.random_starts`) and left/right mirroring (`data.mirror`);
 
-and the extensions of the previous from-scratch recipe (`lafan1_cpu_mixed`, pinned here value by value): the KL
+and the extensions of the previous from-scratch recipe (`lafan1_cpu_mixed`, now
+`results/lafan1_cpu/scratch_mixed/lafan1_cpu_mixed.py`, pinned here value by value): the KL
 weight at 0.1 with 1 free nat and a 500-step warm-up, half of each batch rolled out from the prior, the foot-skate
 term on either end's height at 128, the foot-velocity term at 16, contact outputs that pass gradients as inputs,
 every length drawn after the schedule, and the learning rate decayed. Those were measured better than the
@@ -28,7 +29,7 @@ get_config = variant(
     "data.extra_train_dirs=../lafan1_filtered60",
     "data.random_starts=true",
     "data.mirror=true",
-    # the lafan1_cpu_mixed extensions, each value pinned
+    # the extensions of the earlier recipe lafan1_cpu_mixed, each value pinned
     "model.contact_input_gradient=true",
     "loss.kl_weight=0.1",
     "loss.free_bits=1.0",

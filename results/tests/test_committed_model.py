@@ -102,7 +102,7 @@ def test_model_below_interpolation_loads_and_its_samples_end_on_the_keyframes():
 
 def test_the_recipe_config_is_the_config_of_the_from_scratch_recipe_model(recipe):
     saved = recipe.config  # trained as lafan1_cpu with overrides and --max-steps 16000
-    mixed = config.load_config("lafan1_cpu_mixed")
+    mixed = config.load_config(str(RESULTS / "scratch_mixed" / "lafan1_cpu_mixed.py"))
     assert mixed.train.max_steps == 16000 and mixed != config.load_config("lafan1_cpu")
     same = lambda c: dataclasses.replace(c, name="", train=dataclasses.replace(c.train, max_steps=0))
     assert same(mixed) == same(saved)

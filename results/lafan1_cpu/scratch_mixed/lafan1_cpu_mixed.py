@@ -1,6 +1,7 @@
-"""The recommended from-scratch recipe on a 2-core CPU: lafan1_cpu with the four changes the fine-tunes measured.
+"""The earlier from-scratch recipe on a 2-core CPU: lafan1_cpu with the four changes the fine-tunes measured.
 
-    bin/train --config lafan1_cpu_mixed --workdir runs/lafan1_cpu_mixed --data ../shared/data/lafan1
+    bin/train --config results/lafan1_cpu/scratch_mixed/lafan1_cpu_mixed.py --workdir runs/lafan1_cpu_mixed \
+              --data ../shared/data/lafan1
 
 - every length drawn after the schedule (`train.length_after_schedule=uniform`: 14 % less foot slide than L = 50
   alone);
@@ -8,7 +9,8 @@
 - the foot velocity term at 16;
 - the learning rate decaying from step 6000 to 0.05 x at 14000, and 16000 steps (~70 min alone on 2 cores).
 
-This is the config of the committed model `results/lafan1_cpu/scratch_mixed/models/scratch_mixed`: below
+This is the config of the committed model `results/lafan1_cpu/scratch_mixed/models/scratch_mixed` (exported as the
+package's first release model, `lafan1_cpu_mixed`; kept here with its experiments, no longer in configs/): below
 interpolation on ADE and NPSS at every length of the protocol (results/README.md, "The recipe from scratch").
 Its first lines pin what lafan1_cpu set before it became the paper's loss (2026-12-04): the KL weight at 0.1,
 1 free nat, a 500-step warm-up, half of each batch from the prior, contact gradients, no validation split.
