@@ -49,7 +49,7 @@ from stitchjax.trained_model import InbetweenError, Model, model_or_pretrained
 from stitchjax.windows import CONTACT_THRESHOLD, center_and_face, facing_rotation, foot_contacts
 
 __all__ = [
-    "InbetweenError", "inbetween", "sample_transitions", "transitions_in_frame", "keyframe_contacts",
+    "InbetweenError", "inbetween", "sampling_settings", "sample_transitions", "transitions_in_frame", "keyframe_contacts",
     "stitch_losses", "check_length",
 ]
 
@@ -285,9 +285,18 @@ def _keyframe(motion: Motion, which: str):
         raise InbetweenError(f"{which} has no frames")
 
 
+def sampling_settings(model: Model, noise_scale=None, noise_correlation=None, noise_ramp_steps=None) -> tuple:
+    """(noise_scale, noise_correlation, noise_ramp_steps): each one given, else the model's default
+    (``model.sampling``)."""
+    default = model.sampling
+    return (default["noise_scale"] if noise_scale is None else noise_scale,
+            default["noise_correlation"] if noise_correlation is None else noise_correlation,
+            default["noise_ramp_steps"] if noise_ramp_steps is None else noise_ramp_steps)
+
+
 def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samples: int = 1, seed=0,
               search: int = 0, start_contacts=None, target_contacts=None, allow_extrapolation: bool = False, *,
-              noise_scale: float = 1.0, noise_ramp_steps: int = 0,
+              noise_scale: float | None = None, noise_ramp_steps: int | None = None,
               noise_correlation: float | None = None, foot_lock=False) -> list:
     """Generate ``num_samples`` transitions of ``length`` frames from ``start`` to ``target``.
 
@@ -302,8 +311,11 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     noise_scale: factor on the latent noise (1: the model's own spread; 0: one motion, the prior's mean);
     noise_ramp_steps: the noise rises from 0 at the frames next to the keyframes to full over this many
       frames (0: full from the first frame, the paper's sampling; ``rollout.noise_ramp``);
-    noise_correlation: the noise's correlation from one frame to the next (None: the model's
-      ``model.noise_correlation``; 0: independent per frame, the paper's; ``rollout.correlated_noise``).
+    noise_correlation: the noise's correlation from one frame to the next (0: independent per frame, the
+      paper's; ``rollout.correlated_noise``).
+      Each of the three left None takes the model's default sampling (``model.sampling``: the release model's
+      is chosen on the validation split to spread the samples visibly; a training run's is the paper's,
+      ``model.paper_sampling``).
     foot_lock: plant the feet where the model predicts contact (:mod:`stitchjax.footlock`; True, False or a
       ``FootLockConfig``); the keyframes stay exact either way.
     The keyframes must be on the model's skeleton, frame rate and units (see
@@ -314,6 +326,8 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     :func:`transitions_in_frame` for the stitching losses.
     """
     model = model_or_pretrained(model)
+    noise_scale, noise_correlation, noise_ramp_steps = sampling_settings(model, noise_scale, noise_correlation,
+                                                                         noise_ramp_steps)
     _keyframe(start, "start")
     _keyframe(target, "target")
     _check_skeleton(model, start.skeleton)

@@ -28,14 +28,15 @@ import jax
 import numpy as np
 
 from stitchjax import checkpoints, conform, datasets, features, networks, parallel, phase
+from stitchjax import RELEASE_MODEL
 from stitchjax import config as config_lib
 from stitchjax.skeleton import LAFAN1_FEET
 
-__all__ = ["InbetweenError", "Model", "RELEASE_MODEL", "export_model", "load_model", "model_from_state",
+__all__ = ["InbetweenError", "Model", "RELEASE_MODEL", "SAMPLING_KEYS", "check_sampling", "export_model", "load_model", "model_from_state",
            "model_or_pretrained", "pretrained", "random_model", "with_matmul_dtype"]
 
 MODELS_DIR = pathlib.Path(__file__).resolve().parent / "models"  # exported models shipped with the package
-RELEASE_MODEL = "lafan1_cpu_mixed"  # the folder of MODELS_DIR that pretrained() loads
+SAMPLING_KEYS = ("noise_scale", "noise_correlation", "noise_ramp_steps")
 MODEL_JSON, PARAMS_FILE = "model.json", "params.msgpack"  # an exported model folder's two files
 FORMAT = "stitchjax-model"
 FORMAT_VERSION = 1
@@ -64,7 +65,10 @@ class Model:
       up_axis: (3,) the training files' up axis (takes are turned from it to +Y for the model, and back).
       forward_axis: (3,) the root's local forward axis the training windows were faced by (LAFAN1: +Y).
       unit_scale: centimetres per unit of the training files (takes are scaled by it, and back).
-    The last three come from the checkpoint (``extras["skeleton"]``, :func:`stitchjax.datasets.skeleton_facts`).
+      default_sampling: {"noise_scale", "noise_correlation", "noise_ramp_steps"} that :func:`stitchjax.inbetween.
+        inbetween` and ``bin/inbetween`` use when not told otherwise (an exported model's ``model.json``
+        "sampling"), or None for the paper's (see :attr:`sampling`).
+    up_axis, forward_axis and unit_scale come from the checkpoint (``extras["skeleton"]``, :func:`stitchjax.datasets.skeleton_facts`).
     """
 
     config: Any
@@ -77,6 +81,20 @@ class Model:
     up_axis: tuple = (0.0, 1.0, 0.0)
     forward_axis: tuple = (0.0, 1.0, 0.0)
     unit_scale: float = 1.0
+    default_sampling: dict | None = None
+
+    @property
+    def paper_sampling(self) -> dict:
+        """The paper's sampling: noise x1, full from the first frame, at the correlation the model was trained
+        with (``model.noise_correlation``, 0 in the paper: independent per frame)."""
+        return {"noise_scale": 1.0, "noise_correlation": float(self.config.model.noise_correlation),
+                "noise_ramp_steps": 0}
+
+    @property
+    def sampling(self) -> dict:
+        """The sampling used when a call gives none: ``default_sampling`` over :attr:`paper_sampling`."""
+        chosen = {k: v for k, v in (self.default_sampling or {}).items() if k in SAMPLING_KEYS}
+        return {**self.paper_sampling, **chosen}
 
     @property
     def parents(self) -> tuple:
@@ -238,17 +256,42 @@ def _stored_dtype(dtype: str):
     return jax.numpy.dtype(dtype)
 
 
+def check_sampling(sampling: dict) -> dict:
+    """``sampling`` ({"noise_scale" >= 0, "noise_correlation" in [0, 1], "noise_ramp_steps" >= 0 frames}, any
+    subset) as floats and ints; InbetweenError naming the bad entry otherwise."""
+    unknown = sorted(set(sampling) - set(SAMPLING_KEYS))
+    if unknown:
+        raise InbetweenError(f"sampling: unknown {', '.join(unknown)} (use {', '.join(SAMPLING_KEYS)})")
+    out = {}
+    if "noise_scale" in sampling:
+        out["noise_scale"] = float(sampling["noise_scale"])
+        if not (np.isfinite(out["noise_scale"]) and out["noise_scale"] >= 0):
+            raise InbetweenError(f"sampling noise_scale must be a finite number >= 0, got {sampling['noise_scale']}")
+    if "noise_correlation" in sampling:
+        out["noise_correlation"] = float(sampling["noise_correlation"])
+        if not 0.0 <= out["noise_correlation"] <= 1.0:
+            raise InbetweenError(f"sampling noise_correlation must be in [0, 1], got {sampling['noise_correlation']}")
+    if "noise_ramp_steps" in sampling:
+        ramp = sampling["noise_ramp_steps"]
+        if int(ramp) != ramp or ramp < 0:
+            raise InbetweenError(f"sampling noise_ramp_steps must be a whole number of frames >= 0, got {ramp}")
+        out["noise_ramp_steps"] = int(ramp)
+    return out
+
+
 def export_model(model: Model, folder, dtype: str = "float16", notes: dict | None = None,
-                 source: str | None = None) -> pathlib.Path:
+                 source: str | None = None, sampling: dict | None = None) -> pathlib.Path:
     """Write what sampling needs into ``folder`` (created): ``params.msgpack`` holds the generators' (and
     phase network's, when the model uses one) parameters cast to ``dtype``, ``model.json`` the full config
     (every field written out, so later changes of the defaults do not change the model), the normalisation
-    statistics, the skeleton facts, ``source`` (default ``model.source``) and ``notes`` (JSON-able). No optimiser
-    or train state.
+    statistics, the skeleton facts, ``source`` (default ``model.source``), ``sampling`` (the default sampling
+    of :attr:`Model.sampling`; default ``model.default_sampling``, None = the paper's) and ``notes`` (JSON-able).
+    No optimiser or train state.
     Returns the folder; :func:`load_model` reads it back (parameters as float32)."""
     from flax import serialization  # reason: only exporting / loading an exported folder needs it
 
     stored = _stored_dtype(dtype)
+    sampling = check_sampling(model.default_sampling or {} if sampling is None else sampling)
     folder = pathlib.Path(os.fspath(folder)).expanduser()
     folder.mkdir(parents=True, exist_ok=True)
     tree = {"generators": {"forward": model.params["forward"], "backward": model.params["backward"]}}
@@ -262,7 +305,7 @@ def export_model(model: Model, folder, dtype: str = "float16", notes: dict | Non
         "param_dtype": dtype, "parameters": int(sum(np.size(x) for x in jax.tree.leaves(tree))),
         "config": config_lib.to_dict(model.config),
         "stats": {k: np.asarray(v).tolist() for k, v in model.stats.items()},
-        "skeleton": _facts_json(model), "notes": notes or {},
+        "skeleton": _facts_json(model), "sampling": sampling or None, "notes": notes or {},
     }
     (folder / MODEL_JSON).write_text(json.dumps(description, indent=1) + "\n")
     return folder
@@ -295,9 +338,14 @@ def _load_exported(folder: pathlib.Path) -> Model:
         raise InbetweenError(f"{params_path}: the parameters do not match the networks of its config "
                              f"({description.get('name')!r}); export the model again (bin/export)")
     stored = jax.tree.map(lambda x: jax.numpy.asarray(np.asarray(x, np.float32)), stored)
-    return model_from_state(config, _SamplingState(stored["params"], stored.get("phase_params")),
-                            description.get("stats"), description.get("skeleton"),
-                            f"{folder.name} (exported from {description.get('source', 'a training run')}, stored in {description['param_dtype']})")
+    try:
+        sampling = check_sampling(description.get("sampling") or {}) or None
+    except InbetweenError as error:
+        raise InbetweenError(f"{folder / MODEL_JSON}: {error}; fix it or export the model again (bin/export)") from None
+    model = model_from_state(config, _SamplingState(stored["params"], stored.get("phase_params")),
+                             description.get("stats"), description.get("skeleton"),
+                             f"{folder.name} (exported from {description.get('source', 'a training run')}, stored in {description['param_dtype']})")
+    return dataclasses.replace(model, default_sampling=sampling)
 
 
 def pretrained(name: str = RELEASE_MODEL) -> Model:
