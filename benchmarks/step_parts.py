@@ -87,7 +87,7 @@ def parts(batch: int, length: int, dtype: str, reps: int, profile_dir: pathlib.P
           scan_remat: str = "none") -> list:
     import jax
 
-    from stitchjax import losses, rollout
+    from stitchjax import losses, rollout, specs
 
     config = run_all.bench_config(batch, length, [f"model.matmul_dtype={dtype}", f"train.scan_remat={scan_remat}"])
     whole = run_all.JaxTrain(config, length)
@@ -95,13 +95,14 @@ def parts(batch: int, length: int, dtype: str, reps: int, profile_dir: pathlib.P
     sample = whole.sample(whole.dataset, state.key, state.step)
     key = jax.random.PRNGKey(3)
     generators = {name: state.params[name] for name in ("forward", "backward")}
+    spec = specs.train_spec(config)
 
     def forward(generators, phase_params, sample):
         out = rollout.rollout_batch(generators, phase_params, sample, key, config, length)
         return out["global_positions"]
 
     def loss(generators, phase_params, sample):
-        return losses.generator_loss({**state.params, **generators}, phase_params, sample, key, config, length)[0]
+        return losses.generator_loss({**state.params, **generators}, phase_params, sample, key, spec, length)[0]
 
     rows = []
     for name, fn in (("rollout", forward), ("generator loss + grad", jax.grad(loss))):

@@ -743,11 +743,13 @@ def generator_noise(key, batch_size: int, config, max_length: int) -> np.ndarray
 def _jax_losses(config):
     """stitchjax's generator + discriminator losses, jitted once per config (length is traced)."""
     import jax
-    from stitchjax import losses
+    from stitchjax import losses, specs
+
+    spec = specs.train_spec(config)
 
     def both(params, phase_params, batch, key, length, kl_scale):
-        total, terms, generated = losses.generator_loss(params, phase_params, batch, key, config, length, kl_scale)
-        disc_total, disc_terms = losses.discriminator_loss(params, phase_params, batch, key, config, length,
+        total, terms, generated = losses.generator_loss(params, phase_params, batch, key, spec, length, kl_scale)
+        disc_total, disc_terms = losses.discriminator_loss(params, phase_params, batch, key, spec, length,
                                                            generated)
         return total, terms, disc_total, disc_terms
 
@@ -797,15 +799,16 @@ def check_equal_gradients(config, params, phase_params, batch_np: dict, length: 
     """
     import jax
     import jax.numpy as jnp
-    from stitchjax import losses
+    from stitchjax import losses, specs
 
     kl_scale = kl_warmup(step, config.loss.kl_warmup_steps)
     batch_j = {k_: jnp.asarray(v) for k_, v in batch_np.items()}
     generators = {name: params[name] for name in ("forward", "backward")}
+    spec = specs.train_spec(config)
     discriminators = {name: params[name] for name in ("disc_short", "disc_long")}
 
     def objective(gen_params):
-        return losses.generator_loss({**gen_params, **discriminators}, phase_params, batch_j, key, config,
+        return losses.generator_loss({**gen_params, **discriminators}, phase_params, batch_j, key, spec,
                                      jnp.int32(length), kl_scale)[0]
 
     grads = jax.jit(jax.grad(objective))(generators)

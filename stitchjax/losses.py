@@ -18,20 +18,22 @@ L_state, L_kl and L_fk are averaged over the forward and backward generators. Th
 minimises ``generator_loss`` (everything but L_D); the discriminator update minimises
 ``discriminator_loss`` = 0.1 L_D. One train step does ONE rollout (``generator_rollouts``), which
 ``generator_objective`` scores; it returns the (stop-gradient) discriminator features of the generated
-motion as its third output, which ``discriminator_loss`` takes as its ``generated`` argument. The rollout
-needs the whole ``Config`` (it is the model); the loss terms take only the sections they read
-(``loss_config``, ``model_config``, ``data_config``).
+motion as its third output, which ``discriminator_loss`` takes as its ``generated`` argument. The
+objective reads frozen specs built once where the train step is made (``stitchjax.specs``): a
+``TrainSpec`` holds the config the rollout takes (the model), the ``LossSpec`` (``config.loss`` and the model
+switches that decide which terms exist) and the ``SkeletonSpec`` (feet, up axis, scales of the dataset).
 
 Norms: ``loss.reduction="sum"`` takes ||.||_1 literally (sum over the components of a frame), then the
 mean over valid frames and the batch; "mean" also averages over components. Positions enter FK,
-stitching and discriminator features divided by ``data.position_scale`` (LAFAN1: metres).
+stitching and discriminator features divided by ``data.position_scale`` (LAFAN1: metres;
+``SkeletonSpec.position_scale``).
 """
 from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
 
-from stitchjax import conform, datasets, networks
+from stitchjax import networks
 from stitchjax import features as F
 from stitchjax import rollout as rollout_lib
 from stitchjax.windows import FOOT_HEIGHT_THRESHOLD_CM
@@ -188,41 +190,40 @@ def foot_height_contacts(global_positions, truth_positions, mask, feet, up_axis:
     return jax.lax.stop_gradient(shifted)
 
 
-def _fixed_feet(entry, data_config, field: str):
-    """The contact joints of the dataset `entry`; a ValueError naming `field` when it reads them per file."""
-    if entry.feet is None:
-        raise ValueError(f"{field} needs a dataset with fixed feet; {data_config.dataset!r} reads them from its "
+def _fixed_feet(skeleton, field: str):
+    """The contact joints of `skeleton` (a ``SkeletonSpec``); a ValueError naming `field` when the dataset
+    reads them per file."""
+    if skeleton.feet is None:
+        raise ValueError(f"{field} needs a dataset with fixed feet; {skeleton.dataset!r} reads them from its "
                          f"files (set {field}=0)")
-    return entry.feet
+    return skeleton.feet
 
 
-def _foot_skate_term(out, batch, loss_config, data_config):
-    """loss.foot_skate_weight's term on the stitched motion `out`, with the dataset's feet and the contacts
-    that ``loss.foot_skate_contacts`` names."""
-    entry = datasets.get(data_config.dataset)
-    feet = _fixed_feet(entry, data_config, "loss.foot_skate_weight")
+def _foot_skate_term(out, batch, loss_config, skeleton):
+    """loss.foot_skate_weight's term on the stitched motion `out`, with the feet of `skeleton` (a
+    ``SkeletonSpec``) and the contacts that ``loss.foot_skate_contacts`` names."""
+    feet = _fixed_feet(skeleton, "loss.foot_skate_weight")
     positions, mask = out["global_positions"], out["mask"]
     t = positions.shape[1]
     if loss_config.foot_skate_contacts == "truth":
-        return foot_skate_loss(positions, batch["contacts"][:, :t], mask, feet, data_config.position_scale,
+        return foot_skate_loss(positions, batch["contacts"][:, :t], mask, feet, skeleton.position_scale,
                                loss_config.reduction)
-    up = conform.parse_axis(entry.up_axis)
-    if up.sum() < 0:  # heights would be measured downwards
+    if skeleton.up_sign < 0:  # heights would be measured downwards
         raise ValueError(f"loss.foot_skate_contacts={loss_config.foot_skate_contacts!r} needs windows with a "
-                         f"positive up axis; {data_config.dataset!r} loads them {entry.up_axis!r} up (use 'truth')")
-    up_axis = int(abs(up).argmax())
+                         f"positive up axis; {skeleton.dataset!r} loads them {skeleton.up_axis!r} up (use 'truth')")
+    up_axis = skeleton.up_index
     contacts = foot_height_contacts(positions, batch["global_positions"][:, :t], mask, feet, up_axis,
                                     either_end=loss_config.foot_skate_contacts == "height_either")
-    return foot_skate_loss(positions, contacts, mask, feet, data_config.position_scale, loss_config.reduction,
+    return foot_skate_loss(positions, contacts, mask, feet, skeleton.position_scale, loss_config.reduction,
                            up_axis=up_axis)
 
 
-def _foot_velocity_term(out, batch, loss_config, data_config):
-    """loss.foot_velocity_weight's term on the stitched motion `out`, with the dataset's feet."""
-    feet = _fixed_feet(datasets.get(data_config.dataset), data_config, "loss.foot_velocity_weight")
+def _foot_velocity_term(out, batch, loss_config, skeleton):
+    """loss.foot_velocity_weight's term on the stitched motion `out`, with the feet of `skeleton`."""
+    feet = _fixed_feet(skeleton, "loss.foot_velocity_weight")
     positions = out["global_positions"]
     return foot_velocity_loss(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"], feet,
-                              data_config.position_scale, loss_config.reduction)
+                              skeleton.position_scale, loss_config.reduction)
 
 
 def lsgan_generator_loss(fake_scores, mask):
@@ -235,12 +236,13 @@ def lsgan_discriminator_loss(real_scores, fake_scores, mask):
     return 0.5 * masked_mean(jnp.square(real_scores - 1.0), mask) + 0.5 * masked_mean(jnp.square(fake_scores), mask)
 
 
-def disc_features(global_positions, root_positions, data_config):
+def disc_features(global_positions, root_positions, skeleton):
     """Per-frame discriminator input (..., T, (J-1)*3 + 3): joint positions relative to the root joint
-    and the root velocity (frame 0: 0), both scaled (``data.position_scale``, ``data.velocity_scale``)."""
-    rel = (global_positions[..., 1:, :] - global_positions[..., :1, :]) / data_config.position_scale
+    and the root velocity (frame 0: 0), both scaled (``position_scale``, ``velocity_scale`` of `skeleton`:
+    a ``SkeletonSpec``, or ``config.data``)."""
+    rel = (global_positions[..., 1:, :] - global_positions[..., :1, :]) / skeleton.position_scale
     rel = rel.reshape(rel.shape[:-2] + (-1,))
-    vel = F.root_velocities(root_positions, data_config.velocity_scale)
+    vel = F.root_velocities(root_positions, skeleton.velocity_scale)
     return jnp.concatenate([rel, vel], axis=-1)
 
 
@@ -252,9 +254,10 @@ def _window_mask(motion_mask, window: int):
     return start + window <= count
 
 
-def direction_targets(batch, length, num_steps: int, backward: bool, data_config):
-    """Ground truth for one direction's per-step outputs (``rollout.direction_frames``)."""
-    return rollout_lib.direction_frames(batch, length, num_steps, backward, data_config)
+def direction_targets(batch, length, num_steps: int, backward: bool, skeleton):
+    """Ground truth for one direction's per-step outputs (``rollout.direction_frames``; `skeleton` gives
+    the velocity scale)."""
+    return rollout_lib.direction_frames(batch, length, num_steps, backward, skeleton)
 
 
 def reconstruction_weights(prior_sampled, weight: float):
@@ -278,23 +281,23 @@ def near_keyframe_weights(num_steps: int, weight: float, frames: int):
     return jnp.where(jnp.arange(num_steps) < frames, jnp.float32(weight), jnp.float32(1.0))
 
 
-def prior_copies(batch, loss_config, model_config):
+def prior_copies(batch, spec):
     """The windows a train step rolls out with ``loss.prior_best_of`` = K: (batch, prior_flags, num_prior).
 
     With K > 1 the last num_prior = round(``loss.prior_sample_fraction`` x B) windows of the (shuffled) batch
     draw z from the prior, and they are repeated K - 1 more times: the rows are the B - num_prior posterior
     windows, then K blocks of the num_prior prior windows (B + (K - 1) num_prior rows); prior_flags (rows,)
     bool marks the prior rows. With K = 1: (batch, None, 0), and prior_sample_fraction draws the prior
-    windows at random (``rollout.prior_sample_flags``).
+    windows at random (``rollout.prior_sample_flags``). spec: the ``LossSpec``.
     """
-    best_of = loss_config.prior_best_of
+    best_of = spec.loss.prior_best_of
     if best_of < 1:
         raise ValueError(f"loss.prior_best_of must be >= 1, got {best_of}")
     if best_of == 1:
         return batch, None, 0
     batch_size = batch["rotations"].shape[0]
-    num_prior = int(round(loss_config.prior_sample_fraction * batch_size))
-    if model_config.posterior == "none" or num_prior == 0:
+    num_prior = int(round(spec.loss.prior_sample_fraction * batch_size))
+    if spec.posterior == "none" or num_prior == 0:
         raise ValueError(f"loss.prior_best_of={best_of} repeats the windows that loss.prior_sample_fraction draws "
                          f"from the prior, and this batch of {batch_size} has none: use a posterior and "
                          "loss.prior_sample_fraction x train.batch_size >= 1, or leave loss.prior_best_of at 1")
@@ -322,7 +325,7 @@ def best_of_weights(errors, num_prior: int, best_of: int):
     return jnp.concatenate([jnp.ones((num_posterior,), jnp.float32), chosen])
 
 
-def _direction_terms(out_dir, target, loss_config, data_config, posterior: str, window_weights=None):
+def _direction_terms(out_dir, target, loss_config, skeleton, posterior: str, window_weights=None):
     """Per-direction terms: "state" and its parts, "fk", "kl" (the KL that is reported), "kl_penalty" (what
     the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I))). window_weights: (B,) weights
     of the state and FK terms (:func:`reconstruction_weights`), None = 1; the frames next to the keyframe are
@@ -339,76 +342,78 @@ def _direction_terms(out_dir, target, loss_config, data_config, posterior: str, 
         kl = penalty = prior_kl  # the paper's term: the sampling distribution against N(0, I)
     else:
         kl, penalty = posterior_kl_loss(out_dir, mask, lc.free_bits, lc.reduction)
-    fk = fk_loss(out_dir["global_positions"], target["global_positions"], recon_mask, data_config.position_scale,
+    fk = fk_loss(out_dir["global_positions"], target["global_positions"], recon_mask, skeleton.position_scale,
                  lc.reduction)
     return {"state": state, "kl": kl, "kl_penalty": penalty, "kl_prior": prior_kl, "fk": fk, **parts}
 
 
-def _disc_scores(params, model_config, features):
-    short = networks.make_discriminator(model_config, "disc_short").apply(params["disc_short"], features)
-    long = networks.make_discriminator(model_config, "disc_long").apply(params["disc_long"], features)
+def _disc_scores(params, spec, features):
+    """Scores of the short and long discriminators (windows and widths of the ``LossSpec`` `spec`)."""
+    short = networks.make_discriminator(spec, "disc_short").apply(params["disc_short"], features)
+    long = networks.make_discriminator(spec, "disc_long").apply(params["disc_long"], features)
     return short, long
 
 
-def _real_features(batch, data_config, num_frames: int):
+def _real_features(batch, skeleton, num_frames: int):
     return disc_features(batch["global_positions"][:, :num_frames], batch["root_positions"][:, :num_frames],
-                         data_config)
+                         skeleton)
 
 
-def adversarial_generator_terms(params, out, loss_config, model_config, data_config) -> dict:
-    """LSGAN generator terms of a stitched rollout: "adv_g_short", "adv_g_long", "adv_g" (their sum)."""
-    fake = disc_features(out["global_positions"], out["root_positions"], data_config)
-    if not loss_config.gen_weight:
+def adversarial_generator_terms(params, out, spec, skeleton) -> dict:
+    """LSGAN generator terms of a stitched rollout: "adv_g_short", "adv_g_long", "adv_g" (their sum).
+    spec: the ``LossSpec``; skeleton: the ``SkeletonSpec``."""
+    fake = disc_features(out["global_positions"], out["root_positions"], skeleton)
+    if not spec.loss.gen_weight:
         zero = jnp.zeros((), fake.dtype)
         return {"adv_g_short": zero, "adv_g_long": zero, "adv_g": zero}
     mask = out["mask"]
-    short, long = _disc_scores(params, model_config, fake)
-    terms = {"adv_g_short": lsgan_generator_loss(short, _window_mask(mask, model_config.disc_short_window)),
-             "adv_g_long": lsgan_generator_loss(long, _window_mask(mask, model_config.disc_long_window))}
+    short, long = _disc_scores(params, spec, fake)
+    terms = {"adv_g_short": lsgan_generator_loss(short, _window_mask(mask, spec.disc_short_window)),
+             "adv_g_long": lsgan_generator_loss(long, _window_mask(mask, spec.disc_long_window))}
     terms["adv_g"] = terms["adv_g_short"] + terms["adv_g_long"]
     return terms
 
 
-def _overlap_stitching_loss(out, loss_config, data_config):
+def _overlap_stitching_loss(out, loss_config, skeleton):
     ov = out["overlap"]
     return stitching_loss(ov["forward_positions"], ov["backward_positions"], ov["mask"],
-                          data_config.position_scale, loss_config.reduction)
+                          skeleton.position_scale, loss_config.reduction)
 
 
-def generator_rollouts(params, phase_params, batch, key, config, length, prior_flags=None) -> tuple[dict, dict]:
+def generator_rollouts(params, phase_params, batch, key, spec, length, prior_flags=None) -> tuple[dict, dict]:
     """The rollouts the generator objective scores: (out, sampled).
 
-    out: ``rollout.rollout_batch`` of the batch, z from the posterior when ``model.posterior`` has one (the
-    state, FK and KL terms); sampled: the motion the stitching and adversarial terms see, ``out`` itself
-    unless ``loss.prior_rollout`` adds a second rollout with z from the prior. prior_flags: (B,) bool, the
-    windows of ``out`` whose z comes from the prior (:func:`prior_copies`); None = drawn at random
-    (``loss.prior_sample_fraction``).
+    spec: the ``TrainSpec`` (its ``rollout`` config is the model). out: ``rollout.rollout_batch`` of the
+    batch, z from the posterior when ``model.posterior`` has one (the state, FK and KL terms); sampled: the
+    motion the stitching and adversarial terms see, ``out`` itself unless ``loss.prior_rollout`` adds a second
+    rollout with z from the prior. prior_flags: (B,) bool, the windows of ``out`` whose z comes from the prior
+    (:func:`prior_copies`); None = drawn at random (``loss.prior_sample_fraction``).
     """
     posterior_key, prior_key = jax.random.split(key)
-    out = rollout_lib.rollout_batch(params, phase_params, batch, posterior_key, config, length,
+    out = rollout_lib.rollout_batch(params, phase_params, batch, posterior_key, spec.rollout, length,
                                     prior_flags=prior_flags)
-    if config.loss.prior_rollout and config.model.posterior != "none":
-        return out, rollout_lib.rollout_batch(params, phase_params, batch, prior_key, config, length, posterior=False)
+    if spec.loss.loss.prior_rollout and spec.loss.posterior != "none":
+        return out, rollout_lib.rollout_batch(params, phase_params, batch, prior_key, spec.rollout, length,
+                                              posterior=False)
     return out, out
 
 
-def generator_objective(params, out, sampled, batch, length, loss_config, model_config, data_config,
-                        kl_scale=1.0, selected=None):
+def generator_objective(params, out, sampled, batch, length, spec, skeleton, kl_scale=1.0, selected=None):
     """Generator objective (paper Eq. 9 without L_D) of the rollouts of :func:`generator_rollouts`.
 
     params: the discriminators' params {"disc_short", "disc_long"} (others ignored); batch: the ground truth;
-    the config sections it reads: ``loss`` (weights), ``model`` (posterior, directions, discriminators) and
-    ``data`` (scales, dataset); kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`);
+    spec: the ``LossSpec`` (weights, posterior, directions, discriminators); skeleton: the ``SkeletonSpec``
+    (scales, feet, up axis); kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`);
     selected: (B,) weights of the windows in the state and FK terms on top of the reconstruction weights
     (:func:`best_of_weights`), None = 1.
     Returns (total, terms, generated) as :func:`generator_loss`.
     """
-    lc = loss_config
+    lc = spec.loss
     n = out["forward"]["mask"].shape[1]
-    directions = ["forward"] + (["backward"] if model_config.bidirectional else [])
+    directions = ["forward"] + (["backward"] if spec.bidirectional else [])
     window_weights = None
     if lc.prior_sample_reconstruction_weight != 1.0:
-        if model_config.posterior == "none" or lc.prior_sample_fraction == 0:  # no window it could weigh
+        if spec.posterior == "none" or lc.prior_sample_fraction == 0:  # no window it could weigh
             raise ValueError("loss.prior_sample_reconstruction_weight weighs the windows that "
                              "loss.prior_sample_fraction draws from the prior: set loss.prior_sample_fraction > 0 "
                              "with a posterior, or leave the weight at 1")
@@ -417,34 +422,34 @@ def generator_objective(params, out, sampled, batch, length, loss_config, model_
         window_weights = selected if window_weights is None else window_weights * selected
     terms = {}
     for name in directions:
-        target = direction_targets(batch, length, n, name == "backward", data_config)
-        for term, value in _direction_terms(out[name], target, lc, data_config, model_config.posterior,
+        target = direction_targets(batch, length, n, name == "backward", skeleton)
+        for term, value in _direction_terms(out[name], target, lc, skeleton, spec.posterior,
                                             window_weights).items():
             terms[f"{term}_{name}"] = value
     for term in ("state", "kl", "kl_penalty", "kl_prior", "fk", "rotation", "velocity", "contact"):
         terms[term] = sum(terms[f"{term}_{d}"] for d in directions) / len(directions)
     if sampled is not out:
-        terms["stitch_posterior"] = jax.lax.stop_gradient(_overlap_stitching_loss(out, lc, data_config))
-    terms["stitch"] = _overlap_stitching_loss(sampled, lc, data_config)
-    terms.update(adversarial_generator_terms(params, sampled, lc, model_config, data_config))
+        terms["stitch_posterior"] = jax.lax.stop_gradient(_overlap_stitching_loss(out, lc, skeleton))
+    terms["stitch"] = _overlap_stitching_loss(sampled, lc, skeleton)
+    terms.update(adversarial_generator_terms(params, sampled, spec, skeleton))
     if lc.foot_skate_weight:
-        terms["foot_skate"] = _foot_skate_term(out, batch, lc, data_config)
+        terms["foot_skate"] = _foot_skate_term(out, batch, lc, skeleton)
     if lc.foot_velocity_weight:
-        terms["foot_velocity"] = _foot_velocity_term(out, batch, lc, data_config)
+        terms["foot_velocity"] = _foot_velocity_term(out, batch, lc, skeleton)
     kl_weight = lc.kl_weight * kl_scale
-    prior_kl = lc.prior_kl_weight * terms["kl_prior"] if model_config.posterior != "none" else 0.0
+    prior_kl = lc.prior_kl_weight * terms["kl_prior"] if spec.posterior != "none" else 0.0
     total = (terms["state"] + kl_weight * terms.pop("kl_penalty") + prior_kl + lc.stitch_weight * terms["stitch"]
              + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"]
              + lc.foot_skate_weight * terms.get("foot_skate", 0.0)
              + lc.foot_velocity_weight * terms.get("foot_velocity", 0.0))
     for name in directions:
         terms.pop(f"kl_penalty_{name}")
-    fake = disc_features(sampled["global_positions"], sampled["root_positions"], data_config)
+    fake = disc_features(sampled["global_positions"], sampled["root_positions"], skeleton)
     generated = {"features": jax.lax.stop_gradient(fake), "mask": sampled["mask"]}
     return total, terms, generated
 
 
-def generator_loss(params, phase_params, batch, key, config, length, kl_scale=1.0):
+def generator_loss(params, phase_params, batch, key, spec, length, kl_scale=1.0):
     """Generator objective for one batch (paper Eq. 9 without L_D): :func:`generator_rollouts` (the
     train step's one rollout) scored by :func:`generator_objective`.
 
@@ -452,7 +457,8 @@ def generator_loss(params, phase_params, batch, key, config, length, kl_scale=1.
       params: {"forward", "backward", "disc_short", "disc_long"}.
       phase_params: frozen phase network params (or None: zero phase features).
       batch: dict from ``features.prepare_dataset`` with leading (B, T); T - 2 is the maximum length.
-      key: PRNG key; config: Config (static); length: traced int transition length.
+      key: PRNG key; spec: ``specs.TrainSpec`` (static: ``specs.train_spec(config)``); length: traced int
+      transition length.
       kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`).
     Returns:
       (total, terms, generated): total scalar; terms dict of scalars "state", "kl", "kl_prior", "fk",
@@ -464,16 +470,15 @@ def generator_loss(params, phase_params, batch, key, config, length, kl_scale=1.
       for :func:`discriminator_loss`.
     """
     batch_size = batch["rotations"].shape[0]
-    batch, prior_flags, num_prior = prior_copies(batch, config.loss, config.model)
-    out, sampled = generator_rollouts(params, phase_params, batch, key, config, length, prior_flags)
+    batch, prior_flags, num_prior = prior_copies(batch, spec.loss)
+    out, sampled = generator_rollouts(params, phase_params, batch, key, spec, length, prior_flags)
     if not num_prior:
-        return generator_objective(params, out, sampled, batch, length, config.loss, config.model, config.data,
-                                   kl_scale)
+        return generator_objective(params, out, sampled, batch, length, spec.loss, spec.skeleton, kl_scale)
     positions = out["global_positions"]
     errors = window_position_errors(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"])
-    selected = best_of_weights(errors, num_prior, config.loss.prior_best_of)
-    total, terms, generated = generator_objective(params, out, sampled, batch, length, config.loss, config.model,
-                                                  config.data, kl_scale, selected)
+    selected = best_of_weights(errors, num_prior, spec.loss.loss.prior_best_of)
+    total, terms, generated = generator_objective(params, out, sampled, batch, length, spec.loss, spec.skeleton,
+                                                  kl_scale, selected)
     prior_errors = jax.lax.stop_gradient(errors[batch_size - num_prior:])
     chosen = selected[batch_size - num_prior:]
     terms["prior_error_mean"] = jnp.mean(prior_errors)
@@ -482,23 +487,26 @@ def generator_loss(params, phase_params, batch, key, config, length, kl_scale=1.
     return total, terms, generated
 
 
-def discriminator_loss(params, phase_params, batch, key, config, length, generated=None):
+def discriminator_loss(params, phase_params, batch, key, spec, length, generated=None):
     """Discriminator objective: ``loss.disc_weight`` * L_D summed over the short and long discriminators.
 
-    generated: the third output of :func:`generator_loss` (reuses its rollout); None = run a rollout here
-    (under stop_gradient). Returns (total, {"adv_d", "adv_d_short", "adv_d_long", "d_real", "d_fake"}).
+    spec: ``specs.TrainSpec``. generated: the third output of :func:`generator_loss` (reuses its rollout);
+    None = run a rollout here (under stop_gradient). Returns (total, {"adv_d", "adv_d_short", "adv_d_long",
+    "d_real", "d_fake"}).
     """
+    skeleton, ls = spec.skeleton, spec.loss
     if generated is None:
-        out = rollout_lib.rollout_batch(jax.lax.stop_gradient(params), phase_params, batch, key, config, length)
-        generated = {"features": disc_features(out["global_positions"], out["root_positions"], config.data),
+        out = rollout_lib.rollout_batch(jax.lax.stop_gradient(params), phase_params, batch, key, spec.rollout,
+                                        length)
+        generated = {"features": disc_features(out["global_positions"], out["root_positions"], skeleton),
                      "mask": out["mask"]}
     fake = jax.lax.stop_gradient(generated["features"])
     mask = generated["mask"]
-    real = _real_features(batch, config.data, fake.shape[1])
-    real_short, real_long = _disc_scores(params, config.model, real)
-    fake_short, fake_long = _disc_scores(params, config.model, fake)
-    m_short = _window_mask(mask, config.model.disc_short_window)
-    m_long = _window_mask(mask, config.model.disc_long_window)
+    real = _real_features(batch, skeleton, fake.shape[1])
+    real_short, real_long = _disc_scores(params, ls, real)
+    fake_short, fake_long = _disc_scores(params, ls, fake)
+    m_short = _window_mask(mask, ls.disc_short_window)
+    m_long = _window_mask(mask, ls.disc_long_window)
     terms = {
         "adv_d_short": lsgan_discriminator_loss(real_short, fake_short, m_short),
         "adv_d_long": lsgan_discriminator_loss(real_long, fake_long, m_long),
@@ -506,4 +514,4 @@ def discriminator_loss(params, phase_params, batch, key, config, length, generat
         "d_fake": 0.5 * (masked_mean(fake_short, m_short) + masked_mean(fake_long, m_long)),
     }
     terms["adv_d"] = terms["adv_d_short"] + terms["adv_d_long"]
-    return config.loss.disc_weight * terms["adv_d"], terms
+    return ls.loss.disc_weight * terms["adv_d"], terms

@@ -43,7 +43,7 @@ from tqdm.auto import tqdm
 
 from stitchjax import checkpoints, datasets, resume, schedule
 from stitchjax import config as config_lib
-from stitchjax import features, losses, networks, parallel, phase, plots, reporting
+from stitchjax import features, losses, networks, parallel, phase, plots, reporting, specs
 from stitchjax import windows as windows_lib
 
 GENERATORS = ("forward", "backward")
@@ -166,7 +166,8 @@ def make_update_step(config, mesh: Mesh | None = None,
     """Jitted `update(state, batch, length) -> (state, metrics)`: one update of all four networks.
 
     batch: dict of (B, T, ...) arrays (batch axis sharded over the mesh). ONE rollout per generator
-    (inside `generator_loss`, whose third output, when present, is handed to `discriminator_loss`).
+    (inside `generator_loss`, whose third output, when present, is handed to `discriminator_loss`). Both
+    losses take the step's `specs.TrainSpec`, resolved here once from `config`.
     The state is donated: do not use the old state after the call.
     """
     takes_kl_scale = generator_loss is None  # the default loss takes the KL warm-up factor
@@ -174,6 +175,7 @@ def make_update_step(config, mesh: Mesh | None = None,
     discriminator_loss = discriminator_loss or losses.discriminator_loss
     mesh = parallel.make_mesh() if mesh is None else mesh
     optimizer = make_optimizer(config.train)
+    spec = specs.train_spec(config)
 
     def update(state: TrainState, batch: dict, length: jax.Array):
         key = jax.random.fold_in(state.key, state.step)
@@ -186,7 +188,7 @@ def make_update_step(config, mesh: Mesh | None = None,
 
         def gen_objective(gen_params):
             out = generator_loss({**gen_params, **discriminators}, state.phase_params, batch, gen_key,
-                                 config, length, **extra)
+                                 spec, length, **extra)
             loss, terms = out[0], out[1]
             aux = out[2] if len(out) > 2 else None
             return loss, (terms, aux)
@@ -196,7 +198,7 @@ def make_update_step(config, mesh: Mesh | None = None,
         def disc_objective(disc_params):
             params = {**jax.lax.stop_gradient(generators), **disc_params}
             extra = () if aux is None else (jax.lax.stop_gradient(aux),)
-            out = discriminator_loss(params, state.phase_params, batch, disc_key, config, length, *extra)
+            out = discriminator_loss(params, state.phase_params, batch, disc_key, spec, length, *extra)
             return out[0], out[1]
 
         (disc_loss, disc_terms), disc_grads = jax.value_and_grad(disc_objective, has_aux=True)(discriminators)

@@ -12,10 +12,16 @@ from stitchjax import datasets, evaluate, losses, metrics, parallel, train, trai
 from stitchjax import features as F
 from stitchjax import networks as N
 from stitchjax import rollout as RO
+from stitchjax import specs
 
 from test_rollout import phase_params_for, synthetic_batch, tiny_config
 
 LENGTH = 8
+
+
+def _generator_loss(params, phase_params, batch, key, config, length):
+    """``losses.generator_loss`` with the train step's specs of `config`."""
+    return losses.generator_loss(params, phase_params, batch, key, specs.train_spec(config), length)
 
 
 @pytest.fixture(scope="module")
@@ -202,12 +208,12 @@ def test_prior_sample_fraction_rolls_windows_out_from_the_prior(setup):
 def test_prior_sample_fraction_trains_and_keeps_the_paper_path_at_zero(setup):
     config, params, phase_params, batch = setup
     key = jax.random.PRNGKey(4)
-    base = losses.generator_loss(params, phase_params, batch, key, config, LENGTH)[0]
-    zero = losses.generator_loss(params, phase_params, batch, key,
-                                 C.apply_overrides(config, ["loss.prior_sample_fraction=0"]), LENGTH)[0]
+    base = _generator_loss(params, phase_params, batch, key, config, LENGTH)[0]
+    zero = _generator_loss(params, phase_params, batch, key,
+                           C.apply_overrides(config, ["loss.prior_sample_fraction=0"]), LENGTH)[0]
     assert float(base) == float(zero)
     mixed_config = C.apply_overrides(config, ["loss.prior_sample_fraction=1"])
-    grads = jax.grad(lambda p: losses.generator_loss(p, phase_params, batch, key, mixed_config, LENGTH)[0])(params)
+    grads = jax.grad(lambda p: _generator_loss(p, phase_params, batch, key, mixed_config, LENGTH)[0])(params)
     # with every window from the prior, the posterior is trained by the KL term alone, and still trained
     post = grads["forward"]["params"]["posterior"]
     assert max(float(jnp.abs(x).max()) for x in jax.tree.leaves(post)) > 0
@@ -236,7 +242,7 @@ def test_prior_sample_reconstruction_weight_only_reweighs_the_prior_windows_stat
                for k, v in batch.items()}
 
     def terms(cfg, b):
-        return losses.generator_loss(params, phase_params, b, key, cfg, LENGTH)[1]
+        return _generator_loss(params, phase_params, b, key, cfg, LENGTH)[1]
 
     weight0 = C.apply_overrides(mixed, ["loss.prior_sample_reconstruction_weight=0"])
     a, b = terms(weight0, batch), terms(weight0, changed)
@@ -269,8 +275,7 @@ def test_near_keyframe_weight_reweighs_only_the_frames_next_to_the_keyframes(set
         changed[name] = jnp.asarray(x, jnp.float32)
 
     def terms(overrides, b):
-        return losses.generator_loss(params, phase_params, b, key, C.apply_overrides(config, overrides),
-                                     LENGTH)[1]
+        return _generator_loss(params, phase_params, b, key, C.apply_overrides(config, overrides), LENGTH)[1]
 
     off = ["loss.near_keyframe_weight=0", "loss.near_keyframe_frames=1"]
     a, b = terms(off, batch), terms(off, changed)
@@ -354,7 +359,7 @@ def test_prior_best_of_scores_only_the_copy_closest_to_the_ground_truth(setup):
     key = jax.random.PRNGKey(1)
     size = batch["rotations"].shape[0]
     best3 = C.apply_overrides(config, ["loss.prior_sample_fraction=0.5", "loss.prior_best_of=3"])
-    copies, flags, num_prior = losses.prior_copies(batch, best3.loss, best3.model)
+    copies, flags, num_prior = losses.prior_copies(batch, specs.loss_spec(best3))
     assert num_prior == round(0.5 * size) and copies["rotations"].shape[0] == size + 2 * num_prior
     np.testing.assert_array_equal(np.asarray(flags), np.arange(size + 2 * num_prior) >= size - num_prior)
     for block in (1, 2):  # the repeated blocks are the batch's last num_prior windows
@@ -367,7 +372,7 @@ def test_prior_best_of_scores_only_the_copy_closest_to_the_ground_truth(setup):
     np.testing.assert_allclose(losses.window_position_errors(positions, jnp.zeros_like(positions),
                                                              jnp.ones((2, 3), bool)), [0.0, 3.0])
 
-    total, terms, generated = losses.generator_loss(params, phase_params, batch, key, best3, LENGTH)
+    total, terms, generated = _generator_loss(params, phase_params, batch, key, best3, LENGTH)
     assert np.isfinite(float(total)) and generated["features"].shape[0] == size
     # the best copy is at least as close as the copies' mean, and the copies differ (independent noise)
     assert float(terms["prior_error_best"]) < float(terms["prior_error_mean"])
@@ -375,15 +380,14 @@ def test_prior_best_of_scores_only_the_copy_closest_to_the_ground_truth(setup):
     changed = _changed_in_between(batch)
     changed = {k: (v.at[-num_prior:].set(changed[k][-num_prior:]) if k in ("rotations", "contacts") else v)
                for k, v in batch.items()}
-    assert abs(float(losses.generator_loss(params, phase_params, changed, key, best3, LENGTH)[1]["state"])
+    assert abs(float(_generator_loss(params, phase_params, changed, key, best3, LENGTH)[1]["state"])
                - float(terms["state"])) > 1e-4
-    grads = jax.grad(lambda p: losses.generator_loss(p, phase_params, batch, key, best3, LENGTH)[0])(params)
+    grads = jax.grad(lambda p: _generator_loss(p, phase_params, batch, key, best3, LENGTH)[0])(params)
     assert all(np.isfinite(np.asarray(g)).all() for g in jax.tree.leaves(grads))
     with pytest.raises(ValueError, match="prior_best_of"):  # no prior window to repeat: refused, not ignored
-        losses.generator_loss(params, phase_params, batch, key, C.apply_overrides(config, ["loss.prior_best_of=2"]),
-                              LENGTH)
+        _generator_loss(params, phase_params, batch, key, C.apply_overrides(config, ["loss.prior_best_of=2"]), LENGTH)
     with pytest.raises(ValueError, match="prior_best_of"):
-        losses.prior_copies(batch, C.apply_overrides(config, ["loss.prior_best_of=0"]).loss, config.model)
+        losses.prior_copies(batch, specs.loss_spec(C.apply_overrides(config, ["loss.prior_best_of=0"])))
 
 
 def test_model_noise_correlation_is_the_rollouts_default_at_training_and_inference(setup):

@@ -150,13 +150,14 @@ def test_phase_network_modulates_the_decoder(setup):
 @pytest.mark.parametrize("extra", [(), ("model.bidirectional=false",), ("model.matmul_dtype=bfloat16",)])
 def test_weight_gradients_after_scan_equal_per_step_gradients(setup, extra):
     _, params, phase_params, batch, _ = setup
-    from stitchjax import losses
+    from stitchjax import losses, specs
 
     def gradients(flag):
         config = tiny_config(f"train.weight_gradients_after_scan={flag}", *extra)
+        spec = specs.train_spec(config)
 
         def loss(gen, pp, b):
-            return losses.generator_loss({**params, **gen}, pp, b, jax.random.PRNGKey(3), config, 7)[0]
+            return losses.generator_loss({**params, **gen}, pp, b, jax.random.PRNGKey(3), spec, 7)[0]
 
         generators = {k: params[k] for k in ("forward", "backward")}
         return jax.jit(jax.value_and_grad(loss, argnums=(0, 1, 2)))(generators, phase_params, batch)
@@ -179,17 +180,18 @@ def test_weight_gradients_after_scan_equal_per_step_gradients(setup, extra):
 def test_taped_scan_gives_the_gradients_of_plain_autodiff(extra):
     """train.scan_remat=taped (record, then replay the tape) changes what the scan stacks, never the loss or
     any gradient (parameters, phase network, batch), against autodiff without after-scan kernel gradients."""
-    from stitchjax import losses
+    from stitchjax import losses, specs
 
     batch = synthetic_batch()
 
     def gradients(*flags):
         config = tiny_config(*extra, *flags)
+        spec = specs.train_spec(config)
         params = N.init_params(config, jax.random.PRNGKey(0))
         generators = {k: params[k] for k in ("forward", "backward")}
 
         def loss(gen, pp, b):
-            return losses.generator_loss({**params, **gen}, pp, b, jax.random.PRNGKey(3), config, 7)[0]
+            return losses.generator_loss({**params, **gen}, pp, b, jax.random.PRNGKey(3), spec, 7)[0]
 
         return jax.jit(jax.value_and_grad(loss, argnums=(0, 1, 2)))(generators, phase_params_for(config), batch)
 
@@ -234,15 +236,16 @@ def test_recorded_values_are_stacked_once():
 def test_scan_remat_keeps_the_loss_and_gradients(setup, policy):
     """train.scan_remat changes only what the scan saves for the backward pass, never the gradients."""
     _, params, phase_params, batch, _ = setup
-    from stitchjax import losses
+    from stitchjax import losses, specs
 
     assert set(RO.SCAN_REMAT) == set(C.CHOICES[("train", "scan_remat")])
 
     def gradients(remat):
         config = tiny_config(f"train.scan_remat={remat}")
+        spec = specs.train_spec(config)
 
         def loss(gen, b):
-            return losses.generator_loss({**params, **gen}, phase_params, b, jax.random.PRNGKey(3), config, 7)[0]
+            return losses.generator_loss({**params, **gen}, phase_params, b, jax.random.PRNGKey(3), spec, 7)[0]
 
         generators = {k: params[k] for k in ("forward", "backward")}
         return jax.jit(jax.value_and_grad(loss, argnums=(0, 1)))(generators, batch)

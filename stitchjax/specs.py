@@ -1,0 +1,101 @@
+"""Small frozen specs resolved once from the ``Config`` where a train step or a loaded model starts.
+
+Below that point functions take the spec they read, not the whole ``Config``:
+
+- :class:`SkeletonSpec`: the skeleton facts the losses and metrics need (parents, feet, up axis, scales),
+  read once from the dataset entry (``stitchjax.datasets``) and ``config.data``;
+- :class:`LossSpec`: the loss section (the weights of paper Eq. 9 and the extensions' switches) and the
+  model switches that decide which terms exist (posterior, directions, discriminators);
+- :class:`TrainSpec`: what one train step's objective reads: the two above and the config the rollout
+  takes (the model).
+
+Every spec is a frozen, hashable dataclass, so a jitted function may close over it or take it as a static
+argument. Built by :func:`skeleton_spec`, :func:`loss_spec` and :func:`train_spec`.
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from stitchjax import conform, datasets
+
+__all__ = ["SkeletonSpec", "LossSpec", "TrainSpec", "skeleton_spec", "loss_spec", "train_spec"]
+
+
+@dataclasses.dataclass(frozen=True)
+class SkeletonSpec:
+    """The skeleton of the training windows, as the losses read it.
+
+    dataset: ``config.data.dataset`` (named in messages); parents: (J,) parent index per joint (-1 root);
+    feet: the contact joints in the order of the contact channels, None when the dataset reads them per file;
+    up_axis: the loaded windows' up axis ("+y", ...), up_index its coordinate (0, 1, 2) and up_sign +1 / -1;
+    position_scale: data units per loss unit (LAFAN1: cm -> m, 100); velocity_scale: the same for the root
+    velocity (cm / frame).
+    """
+
+    dataset: str
+    parents: tuple
+    feet: tuple | None
+    up_axis: str
+    up_index: int
+    up_sign: int
+    position_scale: float
+    velocity_scale: float
+
+    @property
+    def num_joints(self) -> int:
+        return len(self.parents)
+
+
+@dataclasses.dataclass(frozen=True)
+class LossSpec:
+    """The objective's settings (paper Eq. 9 and the extensions beyond it).
+
+    loss: ``config.loss`` (frozen: betas, alphas, reduction, KL and prior settings, foot terms);
+    posterior: ``model.posterior`` ("none" = the paper's KL(p || N(0, I))); bidirectional: both generators
+    are scored; disc_short_window / disc_long_window (frames) and disc_widths: the two discriminators
+    (``networks.make_discriminator`` reads these three).
+    """
+
+    loss: Any
+    posterior: str
+    bidirectional: bool
+    disc_short_window: int
+    disc_long_window: int
+    disc_widths: tuple
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainSpec:
+    """What one train step's objective reads: rollout, the config the rollout takes (the model: sizes,
+    switches, L and K); loss: :class:`LossSpec`; skeleton: :class:`SkeletonSpec`."""
+
+    rollout: Any
+    loss: LossSpec
+    skeleton: SkeletonSpec
+
+
+def skeleton_spec(config) -> SkeletonSpec:
+    """The :class:`SkeletonSpec` of ``config.data.dataset``: feet and up axis from its registry entry,
+    parents and scales from ``config.data``. ValueError for an unknown dataset name."""
+    data = config.data
+    entry = datasets.get(data.dataset)
+    up = conform.parse_axis(entry.up_axis)
+    up_index = int(abs(up).argmax())
+    return SkeletonSpec(dataset=data.dataset, parents=tuple(data.parents),
+                        feet=None if entry.feet is None else tuple(entry.feet), up_axis=entry.up_axis,
+                        up_index=up_index, up_sign=1 if up[up_index] > 0 else -1,
+                        position_scale=data.position_scale, velocity_scale=data.velocity_scale)
+
+
+def loss_spec(config) -> LossSpec:
+    """The :class:`LossSpec` of `config` (``config.loss`` and the model switches the objective reads)."""
+    m = config.model
+    return LossSpec(loss=config.loss, posterior=m.posterior, bidirectional=m.bidirectional,
+                    disc_short_window=m.disc_short_window, disc_long_window=m.disc_long_window,
+                    disc_widths=tuple(m.disc_widths))
+
+
+def train_spec(config) -> TrainSpec:
+    """The :class:`TrainSpec` of `config`: built once where the train step is made."""
+    return TrainSpec(rollout=config, loss=loss_spec(config), skeleton=skeleton_spec(config))
