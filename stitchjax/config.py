@@ -7,7 +7,7 @@ load them with :func:`load_config` and change fields with :func:`apply_overrides
 
     config = apply_overrides(load_config("lafan1"), ["model.latent_dim=32", "train.batch_size=8"])
 
-Transition-length convention (DESIGN.md §6): L = number of generated in-between frames; the start
+Transition-length convention (docs/design.md §6): L = number of generated in-between frames; the start
 keyframe is frame 0 of a training window and the target keyframe is frame L + 1.
 """
 from __future__ import annotations
@@ -37,7 +37,7 @@ class DataConfig:
     data_dir: str = ""  # reason: empty = ../shared/data/<dataset> relative to the repo, or set it
     train_subjects: tuple = ("subject1", "subject2", "subject3", "subject4")  # paper (RMIB split)
     window: int = 52  # reason: the protocol scores transitions of up to L = 50 generated frames between two
-    # keyframes (DESIGN.md §6), so training windows hold 50 + 2 frames (the paper's "50" without keyframes)
+    # keyframes (docs/design.md §6), so training windows hold 50 + 2 frames (the paper's "50" without keyframes)
     offset: int = 20  # paper: window offset 20
     fps: float = 30.0  # LAFAN1 frame rate
     position_scale: float = 100.0  # reason: cm -> m so FK / stitch / offset inputs are O(1) on LAFAN1
@@ -87,13 +87,13 @@ class ModelConfig:
     gating_widths: tuple = (64, 64)  # reason: MANN gating network is a small 3-layer MLP on the phase
     activation: str = "elu"  # reason: MANN experts and gating use ELU
     posterior: str = "next_frame"  # reason: the paper does not say where z's information comes from
-    # (DESIGN.md §5). "next_frame": training draws z from q(z | LSTM state, ground-truth next frame) and the
+    # (docs/design.md §5.5). "next_frame": training draws z from q(z | LSTM state, ground-truth next frame) and the
     # KL term is KL(q || p) with p the latent-interpolation prior; inference draws z from p. "none": z is
     # drawn from p at training too (no information in z: measured ~1 cm between samples, results/README.md)
     z_every_layer: bool = True  # reason: z is concatenated to the input of every decoder layer, as in the
     # MANN/MVAE experts, so the decoder cannot wash it out after the first layer
     decoder_uses_lstm: bool = False  # reason: True also feeds the LSTM output to the decoder, a
-    # deterministic path around z; with it the posterior collapses (measured KL(q||p) 0.02, DESIGN.md §5)
+    # deterministic path around z; with it the posterior collapses (measured KL(q||p) 0.02, docs/design.md §5.5)
     gamma_schedule: str = "direction"  # reason: paper: gamma rises from 0 at the generator's first frame
     # to 1 at the frame it targets, so n / (frames this direction makes); "transition" = n / (L + 1) for
     # both directions (reaches only ~0.57 at L = 48 with bidirectional stitching)
@@ -244,8 +244,8 @@ class TrainConfig:
 class PhaseConfig:
     # Every knob of stitchjax.phase (local-phase labels, the phase network and its pretraining).
     window_seconds: float = 1.0  # reason: +-1 s fit window holds >= 1 period for F >= 0.5 Hz
-    min_frequency: float = 0.25  # DESIGN §5: sinusoid fit F in 0.25..4 Hz (lowest of the grid, Hz)
-    max_frequency: float = 4.0  # DESIGN §5 (highest of the grid, Hz)
+    min_frequency: float = 0.25  # docs/design.md §5.1: sinusoid fit F in 0.25..4 Hz (lowest of the grid, Hz)
+    max_frequency: float = 4.0  # docs/design.md §5.1 (highest of the grid, Hz)
     num_frequencies: int = 31  # reason: 0.125 Hz grid, finer than a 2 s window resolves
     smoothing_seconds: float = 0.05  # reason: removes 1-2 frame contact flicker
     ridge: float = 1.0  # reason: keeps near-degenerate low-frequency fits finite

@@ -92,7 +92,7 @@ def gaussian_kl(mu_q, logvar_q, mu_p, logvar_p, reduction: str = "sum"):
 
 
 def posterior_kl_loss(out_dir, mask, free_bits: float = 0.0, reduction: str = "sum"):
-    """Paper Eq. 5 as read with a posterior (DESIGN.md §5): KL(q || p) of one direction, q the posterior, p the
+    """Paper Eq. 5 as read with a posterior (docs/design.md §5.5): KL(q || p) of one direction, q the posterior, p the
     latent-interpolation prior (``mu_blend``), per frame; the objective's L_kl with ``model.posterior="next_frame"``.
 
     Returns (raw, penalised): the mean over valid frames of the KL, and of max(KL, free_bits) (free bits:
