@@ -320,6 +320,7 @@ class JaxInfer:
             self.fn = lambda: inbetween.sample_transitions(self.model, start, target, offsets, length, samples, 1)
         except (ImportError, AttributeError):
             from stitchjax import networks, phase, rollout as rollout_lib
+            spec = rollout_lib.rollout_spec(config) if hasattr(rollout_lib, "rollout_spec") else config
             key = jax.random.PRNGKey(seed)
             self.params = networks.init_params(config, key)
             self.phase_params = phase.init_phase_params(key, config.data.num_joints * 4 + 3 + config.data.num_contacts,
@@ -332,7 +333,7 @@ class JaxInfer:
             def generate(params, phase_params, key):
                 keys = jax.random.split(key, samples)
                 out = jax.vmap(lambda k: rollout_lib.rollout(params, phase_params, one_start, one_target,
-                                                             jnp.asarray(offsets[0]), k, config, length,
+                                                             jnp.asarray(offsets[0]), k, spec, length,
                                                              length))(keys)
                 return out["global_positions"]
 

@@ -40,7 +40,8 @@ batch = {k: jax.ShapeDtypeStruct(s, jnp.float32) for k, s in shapes.items()}
 step = update.lower(train.abstract_train_state(cfg, mesh), batch, jnp.int32(50)).compile().as_text()
 model = random_model(cfg)
 key = {"rotations": jnp.zeros((1, J, 4)), "root_position": jnp.zeros((1, 3)), "contacts": jnp.zeros((1, 4))}
-sampler = inbetween._compiled_sampler(cfg, 50, 64, 1.0).lower(
+spec = getattr(model, "rollout_spec", cfg)  # checkouts before the rollout took a spec: the Config
+sampler = inbetween._compiled_sampler(spec, 50, 64, 1.0).lower(
     model.params, model.phase_params, key, key, jnp.zeros((1, J, 3)), jax.random.PRNGKey(0)).compile().as_text()
 open(sys.argv[2], "w").write(step)
 open(sys.argv[3], "w").write(sampler)

@@ -98,7 +98,7 @@ def parts(batch: int, length: int, dtype: str, reps: int, profile_dir: pathlib.P
     spec = specs.train_spec(config)
 
     def forward(generators, phase_params, sample):
-        out = rollout.rollout_batch(generators, phase_params, sample, key, config, length)
+        out = rollout.rollout_batch(generators, phase_params, sample, key, rollout.rollout_spec(config), length)
         return out["global_positions"]
 
     def loss(generators, phase_params, sample):

@@ -83,7 +83,7 @@ def main(argv=None) -> int:
                               "start_keyframe_to_frame_1": {k: round(v[0], 3) for k, v in steps.items()},
                               "frame_L_to_target_keyframe": {k: round(v[1], 3) for k, v in steps.items()}}},
         indent=1) + "\n")
-    h, k, _, _ = (int(x) for x in rollout.schedule(model.config, length))
+    h, k, _, _ = (int(x) for x in rollout.schedule(model.rollout_spec, length))
     plots.error_over_time(curves, ylabel="joint position error (m)", xlabel="generated frame", figsize=(7.0, 4.0),
                           dpi=120, path=stem.with_suffix(".png"),
                           title=f"Error along the transition, L = {length}, {len(windows.rotations)} windows "

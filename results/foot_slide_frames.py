@@ -92,7 +92,7 @@ def main(argv=None) -> int:
         {"checkpoint": str(args.checkpoint), "length": length, "windows": int(len(windows.rotations)),
          "samples_noise1": args.samples, "units": "cm/frame, entry t = frame t to t + 1",
          "curves": {k: [round(float(x), 4) for x in v] for k, v in curves.items()}}, indent=1) + "\n")
-    h, k, _, _ = (int(x) for x in rollout.schedule(model.config, length))
+    h, k, _, _ = (int(x) for x in rollout.schedule(model.rollout_spec, length))
     plots.error_over_time(curves, first_frame=0, ylabel="foot slide (cm/frame)",
                           xlabel="step from transition frame t to t + 1 (0 = start keyframe)", figsize=(7.0, 3.5),
                           dpi=120, path=stem.with_suffix(".png"),

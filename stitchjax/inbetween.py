@@ -69,22 +69,22 @@ def stitch_losses(result: dict) -> jax.Array:
 
 
 @functools.lru_cache(maxsize=32)
-def _compiled_sampler(config, length: int, num_candidates: int, noise_scale: float = 1.0,
+def _compiled_sampler(spec, length: int, num_candidates: int, noise_scale: float = 1.0,
                       noise_correlation: float = 0.0, noise_ramp_steps: int = 0):
     """jit of (params, phase_params, start, target, offsets, key) -> model-frame transitions.
 
-    z is drawn from the prior p (the ground truth is never an input); noise_scale multiplies its noise,
-    noise_correlation correlates it over frames (``rollout.correlated_noise``), noise_ramp_steps ramps it
-    up from each keyframe (``rollout.noise_ramp``).
+    spec: the model's ``rollout.RolloutSpec``. z is drawn from the prior p (the ground truth is never an
+    input); noise_scale multiplies its noise, noise_correlation correlates it over frames
+    (``rollout.correlated_noise``), noise_ramp_steps ramps it up from each keyframe (``rollout.noise_ramp``).
 
     start / target: dicts of (B, ...) keyframes as ``rollout.rollout`` wants them; offsets (B, J, 3).
     Every window gets ``num_candidates`` rollouts (keys: split(key, B), then split(window key,
     num_candidates)), so the first candidates do not depend on how many are drawn. Compiled once per
-    (config, length, num_candidates) and batch size; the latent-pair search picks among the candidates
+    (spec, length, num_candidates) and batch size; the latent-pair search picks among the candidates
     outside, so plain sampling and search share compilations.
     """
     def one(params, phase_params, start, target, offsets, key):
-        out = rollout_lib.rollout(params, phase_params, start, target, offsets, key, config, length, length,
+        out = rollout_lib.rollout(params, phase_params, start, target, offsets, key, spec, length, length,
                                   noise_scale=noise_scale, noise_correlation=noise_correlation,
                                   noise_ramp_steps=noise_ramp_steps)
         return {"rotations": out["rotations"], "root_positions": out["root_positions"],
@@ -144,13 +144,13 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
     if not np.isfinite(noise_scale) or noise_scale < 0:
         raise InbetweenError(f"noise_scale must be a finite number >= 0, got {noise_scale}")
     if noise_correlation is None:
-        noise_correlation = model.config.model.noise_correlation
+        noise_correlation = model.rollout_spec.noise_correlation
     if not 0.0 <= noise_correlation <= 1.0:
         raise InbetweenError(f"noise_correlation must be in [0, 1], got {noise_correlation}")
     if int(noise_ramp_steps) != noise_ramp_steps or noise_ramp_steps < 0:
         raise InbetweenError(f"noise_ramp_steps must be a whole number of frames >= 0, got {noise_ramp_steps}")
     candidates = num_samples * max(int(search), 1)
-    fn = _compiled_sampler(model.config, int(length), int(candidates), float(noise_scale),
+    fn = _compiled_sampler(model.rollout_spec, int(length), int(candidates), float(noise_scale),
                            float(noise_correlation), int(noise_ramp_steps))
     as32 = functools.partial(jnp.asarray, dtype=jnp.float32)
     out = fn(model.params, model.phase_params, jax.tree.map(as32, start), jax.tree.map(as32, target),

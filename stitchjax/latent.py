@@ -57,19 +57,20 @@ def checkpoint_from_env(environ=None):
 def noise_shape(model: Model, length: int) -> tuple:
     """Shape (n, 2, latent_dim) of the standard-normal noise one rollout of ``length`` frames draws:
     n scan steps, [forward, backward] generator, latent size."""
-    return (rollout_lib.num_steps(model.config, int(length)), 2, int(model.config.model.latent_dim))
+    spec = model.rollout_spec
+    return (rollout_lib.num_steps(spec, int(length)), 2, int(spec.generator.latent_dim))
 
 
-def _rollout_with_noise(params, phase_params, start, target, offsets, noise, config, length):
+def _rollout_with_noise(params, phase_params, start, target, offsets, noise, spec, length):
     """``rollout.rollout`` with its latent noise (n, 2, latent) given instead of drawn from a key."""
-    return rollout_lib.rollout(params, phase_params, start, target, offsets, jax.random.PRNGKey(0), config,
+    return rollout_lib.rollout(params, phase_params, start, target, offsets, jax.random.PRNGKey(0), spec,
                                length, length, noise=noise)
 
 
 @functools.lru_cache(maxsize=16)
-def _compiled_details(config, length: int):
+def _compiled_details(spec, length: int):
     def one(params, phase_params, start, target, offsets, noise):
-        out = _rollout_with_noise(params, phase_params, start, target, offsets, noise, config, length)
+        out = _rollout_with_noise(params, phase_params, start, target, offsets, noise, spec, length)
         out["stitch_loss"] = stitch_losses(out)
         return out
 
@@ -109,6 +110,6 @@ def rollout_details(model: Model, start: dict, target: dict, offsets, length: in
     if noise.ndim != 5 or noise.shape[2:] != expected:
         raise InbetweenError(f"noise must be (B, S) + {expected} for length {length}, got {noise.shape}")
     as32 = functools.partial(jnp.asarray, dtype=jnp.float32)
-    out = _compiled_details(model.config, int(length))(
+    out = _compiled_details(model.rollout_spec, int(length))(
         model.params, model.phase_params, jax.tree.map(as32, start), jax.tree.map(as32, target), as32(offsets), noise)
     return jax.tree.map(np.asarray, out)

@@ -20,7 +20,7 @@ minimises ``generator_loss`` (everything but L_D); the discriminator update mini
 ``generator_objective`` scores; it returns the (stop-gradient) discriminator features of the generated
 motion as its third output, which ``discriminator_loss`` takes as its ``generated`` argument. The
 objective reads frozen specs built once where the train step is made (``stitchjax.specs``): a
-``TrainSpec`` holds the config the rollout takes (the model), the ``LossSpec`` (``config.loss`` and the model
+``TrainSpec`` holds the rollout's ``RolloutSpec`` (the model), the ``LossSpec`` (``config.loss`` and the model
 switches that decide which terms exist) and the ``SkeletonSpec`` (feet, up axis, scales of the dataset).
 
 Norms: ``loss.reduction="sum"`` takes ||.||_1 literally (sum over the components of a frame), then the
@@ -383,7 +383,7 @@ def _overlap_stitching_loss(out, loss_config, skeleton):
 def generator_rollouts(params, phase_params, batch, key, spec, length, prior_flags=None) -> tuple[dict, dict]:
     """The rollouts the generator objective scores: (out, sampled).
 
-    spec: the ``TrainSpec`` (its ``rollout`` config is the model). out: ``rollout.rollout_batch`` of the
+    spec: the ``TrainSpec`` (its ``rollout`` spec is the model). out: ``rollout.rollout_batch`` of the
     batch, z from the posterior when ``model.posterior`` has one (the state, FK and KL terms); sampled: the
     motion the stitching and adversarial terms see, ``out`` itself unless ``loss.prior_rollout`` adds a second
     rollout with z from the prior. prior_flags: (B,) bool, the windows of ``out`` whose z comes from the prior

@@ -29,6 +29,7 @@ over per-frame features, then dense layers; one score per window position.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 from typing import Any
 
@@ -42,7 +43,7 @@ from stitchjax.config import CHOICES
 
 __all__ = [
     "MATMUL_DTYPES", "SHARED_PROBES", "KERNEL_OUTPUT_TAPES", "elu", "matmul", "kernel_matmul", "input_size",
-    "Dense", "LSTMCell", "MLP", "MoEDense", "Generator",
+    "Dense", "LSTMCell", "MLP", "MoEDense", "GeneratorSpec", "generator_spec", "Generator",
     "Posterior", "LatentMLP", "decode", "sample_latent", "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry", "blend_gaussians",
     "disc_feature_dim", "phase_dim", "generator_input_dims",
 ]
@@ -291,10 +292,51 @@ def sample_latent(mu, logvar, eps):
     return mu + jnp.exp(0.5 * logvar) * eps
 
 
-class Generator(nn.Module):
-    """One S-CVAE step. See the module docstring; ``config`` is the whole Config (static, hashable)."""
+@dataclasses.dataclass(frozen=True)
+class GeneratorSpec:
+    """The generator's sizes and switches, resolved once from a Config (:func:`generator_spec`).
 
-    config: Any
+    num_joints J, num_contacts C: the state's sizes (S = J*4 + 3 + C); latent_dim, lstm_size,
+    encoder_widths, decoder_widths, gating_widths, num_experts: layer sizes; activation, matmul_dtype;
+    switches of ``config.model``: latent_interpolation (Eq. 1), variance_blend, posterior, decoder_uses_lstm,
+    z_every_layer, phase_modulation, time_to_target_input (one more offset input).
+    """
+
+    num_joints: int
+    num_contacts: int
+    latent_dim: int
+    lstm_size: int
+    encoder_widths: tuple
+    decoder_widths: tuple
+    gating_widths: tuple
+    num_experts: int
+    activation: str
+    matmul_dtype: str
+    latent_interpolation: bool
+    variance_blend: str
+    posterior: str
+    decoder_uses_lstm: bool
+    z_every_layer: bool
+    phase_modulation: bool
+    time_to_target_input: bool
+
+
+def generator_spec(config) -> GeneratorSpec:
+    """The :class:`GeneratorSpec` of a Config (``config.model`` and the joint / contact counts of ``config.data``)."""
+    m = config.model
+    return GeneratorSpec(
+        num_joints=config.data.num_joints, num_contacts=config.data.num_contacts, latent_dim=m.latent_dim,
+        lstm_size=m.lstm_size, encoder_widths=tuple(m.encoder_widths), decoder_widths=tuple(m.decoder_widths),
+        gating_widths=tuple(m.gating_widths), num_experts=m.num_experts, activation=m.activation,
+        matmul_dtype=m.matmul_dtype, latent_interpolation=m.latent_interpolation, variance_blend=m.variance_blend,
+        posterior=m.posterior, decoder_uses_lstm=m.decoder_uses_lstm, z_every_layer=m.z_every_layer,
+        phase_modulation=m.phase_modulation, time_to_target_input=m.time_to_target_input)
+
+
+class Generator(nn.Module):
+    """One S-CVAE step. See the module docstring; ``spec``: :class:`GeneratorSpec` (static, hashable)."""
+
+    spec: GeneratorSpec
 
     @nn.compact
     def __call__(self, carry, state, target, offset, gamma, phase, eps, next_state=None, use_prior=None):
@@ -318,8 +360,7 @@ class Generator(nn.Module):
           (the prior p), "mu_posterior", "logvar_posterior" (q; equal to the prior's when z came from it)
           (latent_dim,) each.
         """
-        m = self.config.model
-        data = self.config.data
+        m = self.spec
         latent = m.latent_dim
         dt = m.matmul_dtype
         e_state = MLP(tuple(m.encoder_widths), m.activation, matmul_dtype=dt, name="state_encoder")(state)
@@ -344,9 +385,9 @@ class Generator(nn.Module):
             z = jnp.where(use_prior, sample_latent(mu_b, logvar_b, eps), z)
 
         y = (z, state, target) + ((h,) if m.decoder_uses_lstm else ())
-        num_out = 3 + data.num_joints * 4 + data.num_contacts
+        num_out = 3 + m.num_joints * 4 + m.num_contacts
         y = decode(self, y, z, phase, m, num_out)
-        n = data.num_joints * 4
+        n = m.num_joints * 4
         outputs = {
             "velocity": y[..., :3], "rotation_update": y[..., 3:3 + n], "contact_logits": y[..., 3 + n:],
             "mu": mu, "logvar": logvar, "mu_target": mu_t, "logvar_target": logvar_t,
@@ -445,9 +486,9 @@ class Discriminator(nn.Module):
 # ---------------------------------------------------------------------------------------------------
 
 
-def phase_dim(config) -> int:
-    """P = 2 phase features per contact channel."""
-    return 2 * config.data.num_contacts
+def phase_dim(spec) -> int:
+    """P = 2 phase features per contact channel (``spec``: a :class:`GeneratorSpec`)."""
+    return 2 * spec.num_contacts
 
 
 def disc_feature_dim(config) -> int:
@@ -455,16 +496,16 @@ def disc_feature_dim(config) -> int:
     return (config.data.num_joints - 1) * 3 + 3
 
 
-def generator_input_dims(config) -> dict:
-    """Sizes of the generator's per-step inputs (one example)."""
-    s = features.state_dim(config)
-    offset = config.data.num_joints * 4 + 3 + (1 if config.model.time_to_target_input else 0)
-    return {"state": s, "target": s, "offset": offset, "phase": phase_dim(config),
-            "eps": config.model.latent_dim}
+def generator_input_dims(spec) -> dict:
+    """Sizes of the generator's per-step inputs (one example); ``spec``: a :class:`GeneratorSpec`."""
+    s = features.state_dim(spec.num_joints, spec.num_contacts)
+    offset = spec.num_joints * 4 + 3 + (1 if spec.time_to_target_input else 0)
+    return {"state": s, "target": s, "offset": offset, "phase": phase_dim(spec), "eps": spec.latent_dim}
 
 
-def make_generator(config) -> Generator:
-    return Generator(config)
+def make_generator(spec) -> Generator:
+    """The generator of a :class:`GeneratorSpec`."""
+    return Generator(spec)
 
 
 def make_discriminator(model_config, which: str) -> Discriminator:
@@ -473,9 +514,9 @@ def make_discriminator(model_config, which: str) -> Discriminator:
     return Discriminator(window=window, widths=tuple(model_config.disc_widths))
 
 
-def initial_carry(config, dtype=jnp.float32):
-    """Zero LSTM carry (c, h) for one example."""
-    zeros = jnp.zeros((config.model.lstm_size,), dtype)
+def initial_carry(spec, dtype=jnp.float32):
+    """Zero LSTM carry (c, h) for one example; ``spec``: a :class:`GeneratorSpec`."""
+    zeros = jnp.zeros((spec.lstm_size,), dtype)
     return (zeros, zeros)
 
 
@@ -488,13 +529,14 @@ def init_params(config, key, num_joints: int | None = None) -> dict:
     if num_joints is not None and num_joints != config.data.num_joints:
         raise ValueError(f"num_joints={num_joints} but config.data.parents has {config.data.num_joints} joints; "
                          "set data.parents for this skeleton")
-    dims = generator_input_dims(config)
-    generator = make_generator(config)
+    spec = generator_spec(config)
+    dims = generator_input_dims(spec)
+    generator = make_generator(spec)
     dummy = {name: jnp.zeros((size,), jnp.float32) for name, size in dims.items()}
 
     def init_generator(k):
         next_state = dummy["state"] if config.model.posterior != "none" else None
-        return generator.init(k, initial_carry(config), dummy["state"], dummy["target"], dummy["offset"],
+        return generator.init(k, initial_carry(spec), dummy["state"], dummy["target"], dummy["offset"],
                               jnp.zeros((), jnp.float32), dummy["phase"], dummy["eps"], next_state)
 
     k_fwd, k_bwd, k_short, k_long = jax.random.split(key, 4)

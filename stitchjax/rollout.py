@@ -37,6 +37,8 @@ that each value the backward pass needs is stacked once.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -50,8 +52,8 @@ from stitchjax import skeleton as skel
 from stitchjax import tape as tape_lib
 from stitchjax.config import CHOICES
 
-__all__ = ["rollout", "rollout_batch", "keyframes_from_batch", "num_steps", "schedule", "interpolation_weight",
-           "aligning_step", "stitch", "keyframe_velocity", "keyframe_states", "direction_frames",
+__all__ = ["RolloutSpec", "rollout_spec", "rollout", "rollout_batch", "keyframes_from_batch", "num_steps",
+           "schedule", "interpolation_weight", "aligning_step", "stitch", "keyframe_velocity", "keyframe_states", "direction_frames",
            "next_frame_states", "correlated_noise", "prior_sample_flags", "GAUSSIAN_KEYS"]
 
 _ACTIVATION_NAMES = CHOICES[("model", "activation")]
@@ -59,46 +61,91 @@ GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logv
                  "logvar_posterior")
 
 
-def num_steps(config, max_length: int) -> int:
+@dataclasses.dataclass(frozen=True)
+class RolloutSpec:
+    """What the rollout reads, resolved once from a Config (:func:`rollout_spec`; static, hashable).
+
+    generator: the generators' sizes and switches (``networks.GeneratorSpec``). From ``config.model``:
+    bidirectional, bidirectional_aligning (Eq. 2 ablations), stitch_buffer K, gamma_schedule (Eq. 1's
+    gamma: "direction" or "transition"), keyframe_velocity, contact_input_gradient, stop_phase_gradient,
+    noise_correlation, posterior_horizon. From ``config.data``: parents, position_scale, velocity_scale, fps.
+    prior_sample_fraction: ``loss.prior_sample_fraction``. weight_gradients_after_scan, scan_remat: the
+    training fast path (``config.train``).
+    """
+
+    generator: networks.GeneratorSpec
+    bidirectional: bool
+    bidirectional_aligning: bool
+    stitch_buffer: int
+    gamma_schedule: str
+    keyframe_velocity: str
+    contact_input_gradient: bool
+    stop_phase_gradient: bool
+    noise_correlation: float
+    posterior_horizon: int
+    parents: tuple
+    position_scale: float
+    velocity_scale: float
+    fps: float
+    prior_sample_fraction: float
+    weight_gradients_after_scan: bool
+    scan_remat: str
+
+
+def rollout_spec(config) -> RolloutSpec:
+    """The :class:`RolloutSpec` of a Config: built once where the train step is made or a model is loaded."""
+    m, data, train = config.model, config.data, config.train
+    return RolloutSpec(
+        generator=networks.generator_spec(config), bidirectional=m.bidirectional,
+        bidirectional_aligning=m.bidirectional_aligning, stitch_buffer=m.stitch_buffer,
+        gamma_schedule=m.gamma_schedule, keyframe_velocity=m.keyframe_velocity,
+        contact_input_gradient=m.contact_input_gradient, stop_phase_gradient=m.stop_phase_gradient,
+        noise_correlation=m.noise_correlation, posterior_horizon=m.posterior_horizon, parents=tuple(data.parents),
+        position_scale=data.position_scale, velocity_scale=data.velocity_scale, fps=data.fps,
+        prior_sample_fraction=config.loss.prior_sample_fraction,
+        weight_gradients_after_scan=train.weight_gradients_after_scan, scan_remat=train.scan_remat)
+
+
+def num_steps(spec, max_length: int) -> int:
     """Static scan length for transitions of at most ``max_length`` frames."""
-    if config.model.bidirectional:
-        return (max_length + 1) // 2 + config.model.stitch_buffer
+    if spec.bidirectional:
+        return (max_length + 1) // 2 + spec.stitch_buffer
     return max_length
 
 
-def schedule(config, length):
+def schedule(spec, length):
     """(h, k, n_forward, n_backward) for a (traced) length: split point, buffer, frames per direction."""
     length = jnp.asarray(length, jnp.int32)
-    if not config.model.bidirectional:
+    if not spec.bidirectional:
         return length, jnp.zeros((), jnp.int32), length, jnp.zeros((), jnp.int32)
     h = length // 2
-    k = jnp.minimum(config.model.stitch_buffer, h)
+    k = jnp.minimum(spec.stitch_buffer, h)
     return h, k, h + k, length - h + k
 
 
-def interpolation_weight(config, frame_number, frames_in_direction, length):
+def interpolation_weight(spec, frame_number, frames_in_direction, length):
     """Latent interpolation weight gamma (paper Eq. 1) for the step making a direction's ``frame_number``-th
     frame (1-based) of ``frames_in_direction``: n / N ("direction") or n / (L + 1) ("transition"), in [0, 1]."""
     dtype = jnp.float32
     n = jnp.asarray(frame_number).astype(dtype)
-    if config.model.gamma_schedule == "transition":
+    if spec.gamma_schedule == "transition":
         total = jnp.asarray(length).astype(dtype) + 1.0
-    elif config.model.gamma_schedule == "direction":
+    elif spec.gamma_schedule == "direction":
         total = jnp.maximum(jnp.asarray(frames_in_direction).astype(dtype), 1.0)
     else:
-        raise ValueError(f"model.gamma_schedule={config.model.gamma_schedule!r}: use 'direction' or 'transition'")
+        raise ValueError(f"model.gamma_schedule={spec.gamma_schedule!r}: use 'direction' or 'transition'")
     return jnp.clip(n / total, 0.0, 1.0)
 
 
-def _phase(config, phase_params, state):
-    if not config.model.phase_modulation or phase_params is None:
-        return jnp.zeros(state.shape[:-1] + (networks.phase_dim(config),), state.dtype)
-    if config.model.stop_phase_gradient:
+def _phase(spec, phase_params, state):
+    if not spec.generator.phase_modulation or phase_params is None:
+        return jnp.zeros(state.shape[:-1] + (networks.phase_dim(spec.generator),), state.dtype)
+    if spec.stop_phase_gradient:
         state = jax.lax.stop_gradient(state)
     return phase_lib.phase_features(phase_params, state)
 
 
-def _step(params, phase_params, config, carry, current, target, distance, gamma, eps, probes=None,
+def _step(params, phase_params, spec, carry, current, target, distance, gamma, eps, probes=None,
           next_state=None, use_prior=None, tape=None, record=()):
     """One generator step: frame dicts (rotations (J,4), root (3,), velocity (3,), contacts (C,)).
 
@@ -110,18 +157,17 @@ def _step(params, phase_params, config, carry, current, target, distance, gamma,
     record: the collections to record, () or some of ("inputs", "tape", "output_tape"); then the fourth
     output is {collection: tree} (else None).
     """
-    data = config.data
     contacts, target_contacts = current["contacts"], target["contacts"]
-    if not config.model.contact_input_gradient:
+    if not spec.contact_input_gradient:
         contacts, target_contacts = jax.lax.stop_gradient(contacts), jax.lax.stop_gradient(target_contacts)
     state = F.state_vector(current["rotations"], current["velocity"], contacts)
     target_state = F.state_vector(target["rotations"], target["velocity"], target_contacts)
     offset = F.offset_features(current["rotations"], current["root"], target["rotations"], target["root"],
-                               data.position_scale)
-    if config.model.time_to_target_input:
-        offset = jnp.concatenate([offset, (distance / data.fps)[None].astype(offset.dtype)])
-    phase = _phase(config, phase_params, state)
-    generator = networks.make_generator(config)
+                               spec.position_scale)
+    if spec.generator.time_to_target_input:
+        offset = jnp.concatenate([offset, (distance / spec.fps)[None].astype(offset.dtype)])
+    phase = _phase(spec, phase_params, state)
+    generator = networks.make_generator(spec.generator)
     args = (carry, state, target_state, offset, gamma, phase, eps, next_state, use_prior)
     variables = {**params, **({} if probes is None else {"probes": probes}), **(tape or {})}
     if record:
@@ -134,7 +180,7 @@ def _step(params, phase_params, config, carry, current, target, distance, gamma,
     velocity = out["velocity"]
     frame = {
         "rotations": R.quat_normalize(current["rotations"] + update),
-        "root": current["root"] + velocity * data.velocity_scale,
+        "root": current["root"] + velocity * spec.velocity_scale,
         "velocity": velocity,
         "contacts": jax.nn.sigmoid(out["contact_logits"]),
     }
@@ -158,7 +204,7 @@ def _stack_first(first, rest):
     return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b], axis=0), first, rest)
 
 
-def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probes_i=None, truth_i=None,
+def aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, probes_i=None, truth_i=None,
                   tape_i=None, record=()):
     """One bidirectional aligning step (paper Eq. 2), the body of the rollout's scan.
 
@@ -175,7 +221,7 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
     "forward" / "backward" frame dicts plus their Gaussians, and "records" ({generator: recorded trees},
     empty unless recording).
     """
-    m = config.model
+    m = spec
     dtype = plan["start"]["rotations"].dtype
     length = plan["length"]
     probe = (lambda name: None) if probes_i is None else probes_i.get
@@ -193,8 +239,8 @@ def aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probe
     def direction_step(name, carry_d, frame, target, distance, eps, truth):
         """One step of one generator; it holds its frame once it has made plan["n_<name>"] frames."""
         count = plan[f"n_{name}"]
-        gamma = interpolation_weight(config, i + 1, count, length).astype(dtype)
-        new_carry, new_frame, gaussians, recorded = _step(gen_params[name], phase_params, config, carry_d, frame,
+        gamma = interpolation_weight(spec, i + 1, count, length).astype(dtype)
+        new_carry, new_frame, gaussians, recorded = _step(gen_params[name], phase_params, spec, carry_d, frame,
                                                           target, distance, gamma, eps, probe(name), truth,
                                                           plan.get("use_prior"), taped(name), record)
         carry_d, frame = _hold(i < count, (new_carry, new_frame), (carry_d, frame))
@@ -241,7 +287,7 @@ def stitch(fwd_all, bwd_all, length, h, k, num_frames: int, bidirectional: bool 
     return rot, root, contacts
 
 
-def rollout(gen_params, phase_params, start, target, offsets, key, config, length, max_length: int, noise=None,
+def rollout(gen_params, phase_params, start, target, offsets, key, spec, length, max_length: int, noise=None,
             probes=None, ground_truth=None, noise_scale=1.0, noise_correlation=None, use_prior=None,
             noise_ramp_steps: int = 0, tape=None):
     """Generate one transition.
@@ -253,10 +299,10 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
         units, "contacts" (C,).
       offsets: (J, 3) bone offsets (the root row is ignored).
       key: PRNG key for the latent noise.
-      config: Config (static).
+      spec: :class:`RolloutSpec` (static).
       length: () int, traced: L generated frames, 1 <= L <= max_length (clipped into that range).
       max_length: static maximum L (training: window - 2).
-      noise: optional (num_steps(config, max_length), 2, latent_dim) standard normal latent noise
+      noise: optional (num_steps(spec, max_length), 2, latent_dim) standard normal latent noise
         ([:, 0] forward, [:, 1] backward) used instead of drawing it from ``key`` (latent search).
       probes: optional {"forward", "backward"} zero probes with a leading (num_steps,) axis
         (``scan_gradients.zero_probes``); then (without tape) the result is (dict, {"inputs": inputs}),
@@ -289,19 +335,20 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
       "overlap": "forward_positions", "backward_positions" (2K', J, 3) FK positions of the two sequences
         on the overlapping frames (K' = max(K, 1)), "mask" (2K',) bool.
     """
-    m = config.model
+    m = spec
     dtype = start["rotations"].dtype
     length = jnp.clip(jnp.asarray(length, jnp.int32), 1, max_length)
-    n = num_steps(config, max_length)
-    h, k, n_fwd, n_bwd = schedule(config, length)
+    n = num_steps(spec, max_length)
+    h, k, n_fwd, n_bwd = schedule(spec, length)
     if noise_correlation is None:
         noise_correlation = m.noise_correlation
-    eps = _latent_noise(key, noise, (n, 2, m.latent_dim), dtype, noise_scale, noise_correlation, noise_ramp_steps)
-    if ground_truth is not None and m.posterior == "none":
+    eps = _latent_noise(key, noise, (n, 2, m.generator.latent_dim), dtype, noise_scale, noise_correlation,
+                        noise_ramp_steps)
+    if ground_truth is not None and m.generator.posterior == "none":
         raise ValueError("ground_truth given but model.posterior='none': the model has no posterior")
     truth = (None if ground_truth is None else
              (ground_truth["forward"], ground_truth.get("backward", ground_truth["forward"])))
-    start_frame, target_frame = keyframe_states(config, start, target, length)
+    start_frame, target_frame = keyframe_states(spec, start, target, length)
     plan = {"length": length, "n_forward": n_fwd, "n_backward": n_bwd, "start": start_frame, "target": target_frame}
     if use_prior is not None:
         plan["use_prior"] = jnp.asarray(use_prior, bool)
@@ -312,16 +359,16 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
 
     def body(carry, xs):
         i, eps_i, probes_i, truth_i, tape_i = xs
-        carry, out = aligning_step(gen_params, phase_params, config, carry, i, eps_i, plan, probes_i, truth_i,
+        carry, out = aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, probes_i, truth_i,
                                    tape_i, record)
         out["records"] = _unique_leaves(out["records"], layout)
         return carry, out
 
-    policy = SCAN_REMAT[config.train.scan_remat]
+    policy = SCAN_REMAT[spec.scan_remat]
     if policy is not None:
         body = jax.checkpoint(body, policy=policy)
 
-    carry0 = networks.initial_carry(config, dtype)
+    carry0 = networks.initial_carry(spec.generator, dtype)
     steps = jnp.arange(n, dtype=jnp.int32)
     _, seq = jax.lax.scan(body, (carry0, carry0, start_frame, target_frame), (steps, eps, probes, truth, replay))
 
@@ -333,7 +380,7 @@ def rollout(gen_params, phase_params, start, target, offsets, key, config, lengt
     rot, root, contacts = stitch(fwd_all, bwd_all, length, h, k, t_out, m.bidirectional)
     stitched = _pin_keyframes({"rotations": rot, "root_positions": root, "contacts": contacts}, start, target,
                               length, t_out)
-    result = _with_positions(stitched, fwd_all, bwd_all, seq, offsets, config, length, (h, k, n_fwd, n_bwd))
+    result = _with_positions(stitched, fwd_all, bwd_all, seq, offsets, spec, length, (h, k, n_fwd, n_bwd))
     if record:
         records = jax.tree.unflatten(layout["treedef"], [seq["records"][j] for j in layout["where"]])
         return result, {collection: {name: by_collection[collection] for name, by_collection in records.items()}
@@ -378,22 +425,22 @@ SCAN_REMAT = {
 }
 
 
-def keyframe_velocity(config, start_root, target_root, length):
+def keyframe_velocity(spec, start_root, target_root, length):
     """(3,) scaled root velocity both keyframes are given (``model.keyframe_velocity``), in forward time.
 
     "zero": 0, the paper's poses alone. "mean": the transition's mean root velocity,
     (target root - start root) / (L + 1) / data.velocity_scale, which the two keyframes and L determine.
     """
-    if config.model.keyframe_velocity == "zero":
+    if spec.keyframe_velocity == "zero":
         return jnp.zeros_like(start_root)
     steps = (jnp.asarray(length) + 1).astype(start_root.dtype)
-    return (target_root - start_root) / (steps * config.data.velocity_scale)
+    return (target_root - start_root) / (steps * spec.velocity_scale)
 
 
-def keyframe_states(config, start: dict, target: dict, length) -> tuple[dict, dict]:
+def keyframe_states(spec, start: dict, target: dict, length) -> tuple[dict, dict]:
     """The keyframes as generator frames (rotations, root, contacts, root velocity): the start keyframe in
     forward time and the target keyframe in the backward generator's reversed time (velocity negated)."""
-    velocity = keyframe_velocity(config, start["root_position"], target["root_position"], length)
+    velocity = keyframe_velocity(spec, start["root_position"], target["root_position"], length)
 
     def frame(keyframe, v):
         return {"rotations": keyframe["rotations"], "root": keyframe["root_position"], "velocity": v,
@@ -412,7 +459,7 @@ def _latent_noise(key, noise, shape: tuple, dtype, noise_scale, noise_correlatio
         eps = jnp.asarray(noise, dtype)
         if eps.shape != shape:
             raise ValueError(f"noise has shape {eps.shape}; rollout needs {shape} "
-                             f"= (num_steps(config, max_length), 2, latent_dim)")
+                             f"= (num_steps(spec, max_length), 2, latent_dim)")
     ramp = jnp.asarray(noise_ramp(shape[0], noise_ramp_steps), dtype)[:, None, None]
     return correlated_noise(eps, noise_correlation) * jnp.asarray(noise_scale, dtype) * ramp
 
@@ -468,11 +515,11 @@ def _pin_keyframes(stitched: dict, start: dict, target: dict, length, t_out: int
             "contacts": pin(stitched["contacts"], start["contacts"], target["contacts"])}
 
 
-def _with_positions(stitched: dict, fwd_all: dict, bwd_all: dict, seq: dict, offsets, config, length,
+def _with_positions(stitched: dict, fwd_all: dict, bwd_all: dict, seq: dict, offsets, spec, length,
                     split: tuple) -> dict:
     """The rollout's result (see :func:`rollout`): FK positions of the forward, backward and stitched
     sequences in one call, the per-direction outputs and the overlap. split = (h, k, n_forward, n_backward)."""
-    m = config.model
+    m = spec
     h, k, n_fwd, n_bwd = split
     n = fwd_all["rotations"].shape[0] - 1
     t_out = stitched["rotations"].shape[0]
@@ -480,7 +527,7 @@ def _with_positions(stitched: dict, fwd_all: dict, bwd_all: dict, seq: dict, off
     all_rot = jnp.concatenate([fwd_all["rotations"], bwd_all["rotations"], stitched["rotations"]], axis=0)
     all_root = jnp.concatenate([fwd_all["root"], bwd_all["root"], stitched["root_positions"]], axis=0)
     _, all_pos = skel.forward_kinematics(all_rot, F.local_positions(offsets.astype(dtype), all_root),
-                                         tuple(config.data.parents))
+                                         tuple(spec.parents))
     pos_fwd, pos_bwd, pos_stitched = all_pos[:n + 1], all_pos[n + 1:2 * (n + 1)], all_pos[2 * (n + 1):]
     steps = jnp.arange(n, dtype=jnp.int32)
 
@@ -524,10 +571,11 @@ def keyframes_from_batch(batch: dict, length):
     return keyframe(0), keyframe(index), batch["offsets"][:, 0]
 
 
-def direction_frames(batch: dict, length, num_steps: int, backward: bool, data_config, ahead: int = 1) -> dict:
+def direction_frames(batch: dict, length, num_steps: int, backward: bool, scales, ahead: int = 1) -> dict:
     """Ground truth of one direction's per-step frames (entry i = forward frame i + 1, or backward frame
     L - i), in that direction's time: "rotations" (B, n, J, 4), "velocities" (B, n, 3) scaled (reversed
-    time for the backward direction), "contacts" (B, n, C), "global_positions" (B, n, J, 3).
+    time for the backward direction), "contacts" (B, n, C), "global_positions" (B, n, J, 3). scales: anything
+    with the ``velocity_scale`` of the data (a :class:`RolloutSpec`, a ``specs.SkeletonSpec``, ``config.data``).
 
     ahead = k > 1: entry i is the frame k - 1 further on in that direction's time, clipped at the keyframe it
     heads for (frame L + 1 forward, frame 0 backward), and "velocities" the root's mean velocity over the k
@@ -547,25 +595,25 @@ def direction_frames(batch: dict, length, num_steps: int, backward: bool, data_c
     velocity = take(root) - take(root, before)
     if ahead > 1:  # per frame, over the span from `before`
         velocity = velocity / (step - made + 1).astype(root.dtype)[None, :, None]
-    velocity = velocity / data_config.velocity_scale
+    velocity = velocity / scales.velocity_scale
     return {"rotations": take(batch["rotations"]), "velocities": velocity, "contacts": take(batch["contacts"]),
             "global_positions": take(batch["global_positions"])}
 
 
-def next_frame_states(batch: dict, length, num_steps: int, config) -> dict:
+def next_frame_states(batch: dict, length, num_steps: int, spec) -> dict:
     """Posterior inputs {"forward", "backward"}: (B, n, S) ground-truth state of the frame each step makes,
     or with ``model.posterior_horizon`` = k > 1 of the frame k - 1 further on (:func:`direction_frames`)."""
-    ahead = config.model.posterior_horizon
+    ahead = spec.posterior_horizon
     if ahead < 1:
         raise ValueError(f"model.posterior_horizon must be >= 1 (1 = the next frame), got {ahead}")
     out = {}
     for name in ("forward", "backward"):
-        d = direction_frames(batch, length, num_steps, name == "backward", config.data, ahead)
+        d = direction_frames(batch, length, num_steps, name == "backward", spec, ahead)
         out[name] = F.state_vector(d["rotations"], d["velocities"], d["contacts"])
     return out
 
 
-def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, max_length: int | None = None,
+def rollout_batch(gen_params, phase_params, batch: dict, key, spec, length, max_length: int | None = None,
                   posterior: bool = True, prior_flags=None):
     """:func:`rollout` vmapped over a batch dict (from ``features.prepare_dataset``, leading B).
 
@@ -589,12 +637,12 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
     generators = {name: gen_params[name] for name in ("forward", "backward")}
     length = jnp.asarray(length, jnp.int32)
     truth, use_prior = None, None
-    if posterior and config.model.posterior != "none":
-        truth = next_frame_states(batch, length, num_steps(config, max_length), config)
+    if posterior and spec.generator.posterior != "none":
+        truth = next_frame_states(batch, length, num_steps(spec, max_length), spec)
         if prior_flags is not None:
             use_prior = jnp.asarray(prior_flags, bool)
-        elif config.loss.prior_sample_fraction != 0:  # prior_sample_flags refuses values outside [0, 1]
-            use_prior = prior_sample_flags(key, keys.shape[0], config.loss.prior_sample_fraction)
+        elif spec.prior_sample_fraction != 0:  # prior_sample_flags refuses values outside [0, 1]
+            use_prior = prior_sample_flags(key, keys.shape[0], spec.prior_sample_fraction)
 
     def run(generators, inputs, constants, probes=None, tape=None):
         phase_params, start, target, offsets, truth = inputs
@@ -602,7 +650,7 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
         record = isinstance(tape, str)  # "record" (_recorded_collections refuses any other string)
 
         def one(s, t, o, k, g, u, p, taped):
-            return rollout(generators, phase_params, s, t, o, k, config, length, max_length, probes=p,
+            return rollout(generators, phase_params, s, t, o, k, spec, length, max_length, probes=p,
                            ground_truth=g, use_prior=u, tape="record" if record else taped)
 
         # Probes and taped values in, recorded values out stay step-major (steps, B, ...), the layout the
@@ -613,17 +661,17 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, config, length, ma
             start, target, offsets, keys, truth, use_prior, probes, None if record else tape)
 
     inputs, constants = (phase_params, start, target, offsets, truth), (keys, length, use_prior)
-    taped = config.train.scan_remat == "taped"
-    if taped and not config.train.weight_gradients_after_scan:
+    taped = spec.scan_remat == "taped"
+    if taped and not spec.weight_gradients_after_scan:
         raise ValueError("train.scan_remat=taped needs train.weight_gradients_after_scan=true (the tape is "
                          "recorded by the after-scan gradients' forward pass)")
-    if taped and config.model.activation not in tape_lib.DERIVATIVES:
-        raise ValueError(f"train.scan_remat=taped cannot tape model.activation={config.model.activation!r}: use "
+    if taped and spec.generator.activation not in tape_lib.DERIVATIVES:
+        raise ValueError(f"train.scan_remat=taped cannot tape model.activation={spec.generator.activation!r}: use "
                          f"one of {', '.join(a for a in tape_lib.DERIVATIVES if a in _ACTIVATION_NAMES)}, "
                          "or another train.scan_remat")
-    if config.train.weight_gradients_after_scan:
-        leading = (num_steps(config, max_length), keys.shape[0])
-        run_probed = scan_gradients.gradients_after_scan(run, leading, config.model.matmul_dtype, taped)
+    if spec.weight_gradients_after_scan:
+        leading = (num_steps(spec, max_length), keys.shape[0])
+        run_probed = scan_gradients.gradients_after_scan(run, leading, spec.generator.matmul_dtype, taped)
         out = run_probed(generators, inputs, constants)
     else:
         out = run(generators, inputs, constants, None)

@@ -6,8 +6,8 @@ Below that point functions take the spec they read, not the whole ``Config``:
   read once from the dataset entry (``stitchjax.datasets``) and ``config.data``;
 - :class:`LossSpec`: the loss section (the weights of paper Eq. 9 and the extensions' switches) and the
   model switches that decide which terms exist (posterior, directions, discriminators);
-- :class:`TrainSpec`: what one train step's objective reads: the two above and the config the rollout
-  takes (the model).
+- :class:`TrainSpec`: what one train step's objective reads: the two above and the rollout's
+  ``rollout.RolloutSpec`` (L's scan, K, the gamma schedule, the generator's sizes and switches).
 
 Every spec is a frozen, hashable dataclass, so a jitted function may close over it or take it as a static
 argument. Built by :func:`skeleton_spec`, :func:`loss_spec` and :func:`train_spec`.
@@ -18,6 +18,7 @@ import dataclasses
 from typing import Any
 
 from stitchjax import conform, datasets
+from stitchjax import rollout as rollout_lib
 
 __all__ = ["SkeletonSpec", "LossSpec", "TrainSpec", "skeleton_spec", "loss_spec", "train_spec"]
 
@@ -67,10 +68,10 @@ class LossSpec:
 
 @dataclasses.dataclass(frozen=True)
 class TrainSpec:
-    """What one train step's objective reads: rollout, the config the rollout takes (the model: sizes,
-    switches, L and K); loss: :class:`LossSpec`; skeleton: :class:`SkeletonSpec`."""
+    """What one train step's objective reads: rollout, the ``rollout.RolloutSpec`` (the model);
+    loss: :class:`LossSpec`; skeleton: :class:`SkeletonSpec`."""
 
-    rollout: Any
+    rollout: rollout_lib.RolloutSpec
     loss: LossSpec
     skeleton: SkeletonSpec
 
@@ -98,4 +99,5 @@ def loss_spec(config) -> LossSpec:
 
 def train_spec(config) -> TrainSpec:
     """The :class:`TrainSpec` of `config`: built once where the train step is made."""
-    return TrainSpec(rollout=config, loss=loss_spec(config), skeleton=skeleton_spec(config))
+    return TrainSpec(rollout=rollout_lib.rollout_spec(config), loss=loss_spec(config),
+                     skeleton=skeleton_spec(config))

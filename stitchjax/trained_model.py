@@ -29,6 +29,7 @@ import numpy as np
 
 from stitchjax import checkpoints, conform, datasets, features, networks, parallel, phase
 from stitchjax import RELEASE_MODEL
+from stitchjax import rollout as rollout_lib
 from stitchjax import config as config_lib
 from stitchjax.skeleton import LAFAN1_FEET
 
@@ -95,6 +96,11 @@ class Model:
         """The sampling used when a call gives none: ``default_sampling`` over :attr:`paper_sampling`."""
         chosen = {k: v for k, v in (self.default_sampling or {}).items() if k in SAMPLING_KEYS}
         return {**self.paper_sampling, **chosen}
+
+    @functools.cached_property
+    def rollout_spec(self) -> rollout_lib.RolloutSpec:
+        """The rollout's spec (sizes, switches, L's scan, K, the gamma schedule), resolved once from ``config``."""
+        return rollout_lib.rollout_spec(self.config)
 
     @property
     def parents(self) -> tuple:

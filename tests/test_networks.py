@@ -21,12 +21,13 @@ def test_init_params_and_generator_shapes():
     assert set(params) == {"forward", "backward", "disc_short", "disc_long"}
     kernel = params["forward"]["params"]["current_head"]["kernel"]
     assert not np.allclose(kernel, params["backward"]["params"]["current_head"]["kernel"])  # independent
-    dims = N.generator_input_dims(config)
+    dims = N.generator_input_dims(N.generator_spec(config))
     assert dims["state"] == 22 * 4 + 7 and dims["offset"] == 22 * 4 + 3 + 1 and dims["phase"] == 8
     b = 3
     inputs = [jnp.ones((b, dims[k])) for k in ("state", "target", "offset")]
-    carry = jax.tree.map(lambda x: jnp.zeros((b,) + x.shape), N.initial_carry(config))
-    apply = jax.jit(jax.vmap(N.make_generator(config).apply, in_axes=(None, 0, 0, 0, 0, 0, 0, 0)))
+    carry = jax.tree.map(lambda x: jnp.zeros((b,) + x.shape), N.initial_carry(N.generator_spec(config)))
+    generator = N.make_generator(N.generator_spec(config))
+    apply = jax.jit(jax.vmap(generator.apply, in_axes=(None, 0, 0, 0, 0, 0, 0, 0)))
     new_carry, out = apply(params["forward"], carry, *inputs, jnp.full((b,), 0.5), jnp.ones((b, 8)), jnp.ones((b, 4)))
     assert new_carry[0].shape == (b, 16) and new_carry[1].shape == (b, 16)
     assert out["velocity"].shape == (b, 3) and out["rotation_update"].shape == (b, 88)
@@ -203,14 +204,14 @@ def test_generator_matmul_dtype_keeps_parameters_and_changes_outputs_slightly():
     for a, b in zip(jax.tree.leaves(params), jax.tree.leaves(low_params)):
         assert a.dtype == b.dtype == jnp.float32
         np.testing.assert_array_equal(a, b)
-    dims = N.generator_input_dims(config)
+    dims = N.generator_input_dims(N.generator_spec(config))
     rng = np.random.default_rng(0)
     inputs = [jnp.asarray(rng.normal(size=(3, dims[k])), jnp.float32) for k in ("state", "target", "offset")]
-    carry = jax.tree.map(lambda z: jnp.zeros((3,) + z.shape), N.initial_carry(config))
+    carry = jax.tree.map(lambda z: jnp.zeros((3,) + z.shape), N.initial_carry(N.generator_spec(config)))
     args = (carry, *inputs, jnp.full((3,), 0.5), jnp.asarray(rng.normal(size=(3, dims["phase"])), jnp.float32),
             jnp.asarray(rng.normal(size=(3, dims["eps"])), jnp.float32))
-    _, out = jax.vmap(lambda *a: N.make_generator(config).apply(params["forward"], *a))(*args)
-    _, out_low = jax.vmap(lambda *a: N.make_generator(low).apply(params["forward"], *a))(*args)
+    _, out = jax.vmap(lambda *a: N.make_generator(N.generator_spec(config)).apply(params["forward"], *a))(*args)
+    _, out_low = jax.vmap(lambda *a: N.make_generator(N.generator_spec(low)).apply(params["forward"], *a))(*args)
     for key in ("rotation_update", "mu"):
         assert out_low[key].dtype == jnp.float32
         difference = np.abs(np.asarray(out_low[key]) - np.asarray(out[key]))

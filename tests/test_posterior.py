@@ -55,7 +55,7 @@ def test_training_rollout_reads_the_ground_truth_and_inference_does_not(setup):
     key = jax.random.PRNGKey(1)
 
     def run(b, posterior):
-        return RO.rollout_batch(params, phase_params, b, key, config, LENGTH, posterior=posterior)
+        return RO.rollout_batch(params, phase_params, b, key, RO.rollout_spec(config), LENGTH, posterior=posterior)
 
     # training (posterior): the in-between ground truth decides z, so the motion changes with it
     assert float(jnp.abs(run(batch, True)["rotations"] - run(other, True)["rotations"]).max()) > 1e-4
@@ -139,13 +139,13 @@ def test_gaussian_kl_free_bits_and_warmup():
 
 def test_interpolation_weight_runs_from_zero_to_one_in_each_direction():
     config = tiny_config()
-    h, k, n_fwd, n_bwd = (int(x) for x in RO.schedule(config, 48))
-    last_fwd = float(RO.interpolation_weight(config, n_fwd, n_fwd, 48))
-    last_bwd = float(RO.interpolation_weight(config, n_bwd, n_bwd, 48))
+    h, k, n_fwd, n_bwd = (int(x) for x in RO.schedule(RO.rollout_spec(config), 48))
+    last_fwd = float(RO.interpolation_weight(RO.rollout_spec(config), n_fwd, n_fwd, 48))
+    last_bwd = float(RO.interpolation_weight(RO.rollout_spec(config), n_bwd, n_bwd, 48))
     assert last_fwd == pytest.approx(1.0) and last_bwd == pytest.approx(1.0)
-    assert float(RO.interpolation_weight(config, 1, n_fwd, 48)) == pytest.approx(1 / n_fwd)
+    assert float(RO.interpolation_weight(RO.rollout_spec(config), 1, n_fwd, 48)) == pytest.approx(1 / n_fwd)
     legacy = tiny_config("model.gamma_schedule=transition")
-    legacy_last = float(RO.interpolation_weight(legacy, n_fwd, n_fwd, 48))
+    legacy_last = float(RO.interpolation_weight(RO.rollout_spec(legacy), n_fwd, n_fwd, 48))
     assert legacy_last == pytest.approx(n_fwd / 49) and legacy_last < 0.6
 
 
@@ -195,9 +195,9 @@ def test_prior_sample_fraction_rolls_windows_out_from_the_prior(setup):
     mixed_config = C.apply_overrides(config, ["loss.prior_sample_fraction=0.5"])
     flags = np.asarray(RO.prior_sample_flags(key, batch["rotations"].shape[0], 0.5))
     assert flags.any() and not flags.all(), "the test batch must hold both kinds of window"
-    mixed = RO.rollout_batch(params, phase_params, batch, key, mixed_config, LENGTH)
-    posterior = RO.rollout_batch(params, phase_params, batch, key, config, LENGTH)
-    prior = RO.rollout_batch(params, phase_params, batch, key, config, LENGTH, posterior=False)
+    mixed = RO.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(mixed_config), LENGTH)
+    posterior = RO.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(config), LENGTH)
+    prior = RO.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(config), LENGTH, posterior=False)
     np.testing.assert_array_equal(mixed["rotations"][flags], prior["rotations"][flags])
     np.testing.assert_array_equal(mixed["rotations"][~flags], posterior["rotations"][~flags])
     assert float(jnp.abs(prior["rotations"] - posterior["rotations"]).max()) > 1e-4
@@ -221,7 +221,7 @@ def test_prior_sample_fraction_trains_and_keeps_the_paper_path_at_zero(setup):
         RO.prior_sample_flags(key, 4, 1.5)
     with pytest.raises(ValueError, match="prior_sample_fraction"):  # a negative fraction is refused, not ignored
         RO.rollout_batch(params, phase_params, batch, key,
-                         C.apply_overrides(config, ["loss.prior_sample_fraction=-0.1"]), LENGTH)
+                         RO.rollout_spec(C.apply_overrides(config, ["loss.prior_sample_fraction=-0.1"])), LENGTH)
 
 
 def test_prior_sample_reconstruction_weight_only_reweighs_the_prior_windows_state_and_fk(setup):
@@ -233,7 +233,7 @@ def test_prior_sample_reconstruction_weight_only_reweighs_the_prior_windows_stat
     posterior_key = jax.random.split(key)[0]  # the key generator_rollouts gives the rollout
     flags = np.asarray(RO.prior_sample_flags(posterior_key, batch["rotations"].shape[0], 0.5))
     assert flags.any() and not flags.all(), "the test batch must hold both kinds of window"
-    out = RO.rollout_batch(params, phase_params, batch, posterior_key, mixed, LENGTH)
+    out = RO.rollout_batch(params, phase_params, batch, posterior_key, RO.rollout_spec(mixed), LENGTH)
     np.testing.assert_array_equal(np.asarray(out["prior_sampled"]), flags)
 
     changed = _changed_in_between(batch)  # the prior windows' in-between ground truth replaced by noise
@@ -328,14 +328,16 @@ def test_noise_ramp_puts_the_frames_next_to_the_keyframes_on_the_mean_path():
     length = 10
     start, target, offsets = jax.tree.map(lambda x: x[0], RO.keyframes_from_batch(batch, length))
 
+    spec = RO.rollout_spec(config)
+
     def run(key, ramp):
-        return RO.rollout(params, phase_params_for(config), start, target, offsets, key, config, length, length,
+        return RO.rollout(params, phase_params_for(config), start, target, offsets, key, spec, length, length,
                           noise_ramp_steps=ramp)
 
     keys = jax.random.split(jax.random.PRNGKey(3), 2)
     ramped = [run(k, 4) for k in keys]
     still = run(keys[0], 4)  # same key, same result
-    mean = RO.rollout(params, phase_params_for(config), start, target, offsets, keys[0], config, length, length,
+    mean = RO.rollout(params, phase_params_for(config), start, target, offsets, keys[0], spec, length, length,
                       noise_scale=0.0)
     for direction in ("forward", "backward"):
         first = [np.asarray(r[direction]["global_positions"][0]) for r in ramped]
@@ -399,15 +401,15 @@ def test_model_noise_correlation_is_the_rollouts_default_at_training_and_inferen
     key = jax.random.PRNGKey(2)
 
     def run(cfg, **kw):
-        return np.asarray(RO.rollout(params, phase_params, start, target, offsets, key, cfg, LENGTH, LENGTH,
-                                     **kw)["global_positions"])
+        return np.asarray(RO.rollout(params, phase_params, start, target, offsets, key, RO.rollout_spec(cfg), LENGTH,
+                                     LENGTH, **kw)["global_positions"])
 
     np.testing.assert_array_equal(run(correlated), run(config, noise_correlation=0.9))
     np.testing.assert_array_equal(run(correlated, noise_correlation=0.0), run(config))
     assert np.abs(run(correlated) - run(config)).max() > 1e-4
     # the training rollout reads it too: the prior windows move as the correlated sampler moves them
-    prior = RO.rollout_batch(params, phase_params, batch, key, correlated, LENGTH, posterior=False)
-    plain = RO.rollout_batch(params, phase_params, batch, key, config, LENGTH, posterior=False)
+    prior = RO.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(correlated), LENGTH, posterior=False)
+    plain = RO.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(config), LENGTH, posterior=False)
     assert float(jnp.abs(prior["global_positions"] - plain["global_positions"]).max()) > 1e-4
 
 
@@ -419,7 +421,7 @@ def test_posterior_horizon_shows_the_frame_k_ahead_with_the_roots_mean_velocity(
     _, _, _, batch = setup
     config = tiny_config(f"model.posterior_horizon={ahead}")
     steps, length = 7, LENGTH
-    got = RO.next_frame_states(batch, length, steps, config)
+    got = RO.next_frame_states(batch, length, steps, RO.rollout_spec(config))
     root, scale = np.asarray(batch["root_positions"]), config.data.velocity_scale
     for name in ("forward", "backward"):
         rows = []
@@ -431,7 +433,7 @@ def test_posterior_horizon_shows_the_frame_k_ahead_with_the_roots_mean_velocity(
             rows.append(state)
         np.testing.assert_allclose(got[name], jnp.stack(rows, axis=1), rtol=1e-6, atol=1e-6, err_msg=name)
     if ahead > 1:  # the frames it shows differ from the next frame's
-        nearest = RO.next_frame_states(batch, length, steps, tiny_config())
+        nearest = RO.next_frame_states(batch, length, steps, RO.rollout_spec(tiny_config()))
         assert float(jnp.abs(got["forward"] - nearest["forward"]).max()) > 1e-3
     with pytest.raises(ValueError, match="posterior_horizon"):
-        RO.next_frame_states(batch, length, steps, tiny_config("model.posterior_horizon=0"))
+        RO.next_frame_states(batch, length, steps, RO.rollout_spec(tiny_config("model.posterior_horizon=0")))

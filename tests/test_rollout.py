@@ -43,7 +43,8 @@ def setup():
     params = N.init_params(config, jax.random.PRNGKey(0))
     phase_params = phase_params_for(config)
     # z from the prior, as at inference (the posterior path is tested in test_posterior.py)
-    fn = jax.jit(lambda p, pp, b, k, length: RO.rollout_batch(p, pp, b, k, config, length, posterior=False))
+    spec = RO.rollout_spec(config)
+    fn = jax.jit(lambda p, pp, b, k, length: RO.rollout_batch(p, pp, b, k, spec, length, posterior=False))
     return config, params, phase_params, synthetic_batch(), fn
 
 
@@ -107,7 +108,7 @@ def test_each_ablation_runs_and_changes_the_output(setup, switch):
     length = jnp.int32(8)
     full = fn(params if "phase" not in switch else N.init_params(config, jax.random.PRNGKey(0)),
               phase_params, batch, jax.random.PRNGKey(1), length)
-    out = jax.jit(lambda p, pp, b, k, n: RO.rollout_batch(p, pp, b, k, ablated, n))(
+    out = jax.jit(lambda p, pp, b, k, n: RO.rollout_batch(p, pp, b, k, RO.rollout_spec(ablated), n))(
         params, phase_params, batch, jax.random.PRNGKey(1), length)
     np.testing.assert_array_equal(out["rotations"][:, 9], batch["rotations"][:, 9])
     np.testing.assert_array_equal(out["rotations"][:, 0], batch["rotations"][:, 0])
@@ -124,15 +125,15 @@ def test_keyframe_velocity_is_the_transitions_mean_and_reversed_for_the_target(s
              "contacts": batch["contacts"][0, 0]}
     target = {"rotations": batch["rotations"][0, 9], "root_position": batch["root_positions"][0, 9],
               "contacts": batch["contacts"][0, 9]}
-    first, last = RO.keyframe_states(mean, start, target, jnp.int32(8))
+    first, last = RO.keyframe_states(RO.rollout_spec(mean), start, target, jnp.int32(8))
     expected = (batch["root_positions"][0, 9] - batch["root_positions"][0, 0]) / (9 * config.data.velocity_scale)
     np.testing.assert_allclose(first["velocity"], expected, rtol=1e-6)
     np.testing.assert_allclose(last["velocity"], -expected, rtol=1e-6)  # the backward generator's time
     assert float(jnp.abs(expected).max()) > 1e-3
-    zero_first, zero_last = RO.keyframe_states(config, start, target, jnp.int32(8))
+    zero_first, zero_last = RO.keyframe_states(RO.rollout_spec(config), start, target, jnp.int32(8))
     assert not np.any(np.asarray(zero_first["velocity"])) and not np.any(np.asarray(zero_last["velocity"]))
     key, length = jax.random.PRNGKey(1), jnp.int32(8)
-    fed = jax.jit(lambda p, pp, b, k, n: RO.rollout_batch(p, pp, b, k, mean, n, posterior=False))(
+    fed = jax.jit(lambda p, pp, b, k, n: RO.rollout_batch(p, pp, b, k, RO.rollout_spec(mean), n, posterior=False))(
         params, phase_params, batch, key, length)
     paper = fn(params, phase_params, batch, key, length)
     np.testing.assert_array_equal(fed["rotations"][:, 9], batch["rotations"][:, 9])  # keyframes stay exact
@@ -209,7 +210,8 @@ def test_taped_scan_refuses_an_activation_it_cannot_tape():
     config = tiny_config("train.scan_remat=taped", "model.activation=gelu")
     params = N.init_params(config, jax.random.PRNGKey(0))
     with pytest.raises(ValueError, match="scan_remat=taped cannot tape model.activation='gelu'"):
-        RO.rollout_batch(params, phase_params_for(config), synthetic_batch(), jax.random.PRNGKey(1), config, 7)
+        RO.rollout_batch(params, phase_params_for(config), synthetic_batch(), jax.random.PRNGKey(1),
+                         RO.rollout_spec(config), 7)
 
 
 def test_recorded_values_are_stacked_once():
@@ -220,14 +222,15 @@ def test_recorded_values_are_stacked_once():
     batch = synthetic_batch()
     start, target, offsets = RO.keyframes_from_batch(batch, 7)
     one = jax.tree.map(lambda x: x[0], (start, target, offsets))
-    _, records = RO.rollout(params, phase_params_for(config), *one, jax.random.PRNGKey(1), config, 7, 10,
+    _, records = RO.rollout(params, phase_params_for(config), *one, jax.random.PRNGKey(1), RO.rollout_spec(config), 7,
+                            10,
                             tape="record")
     forward_inputs, forward_outputs = records["inputs"]["forward"], records["output_tape"]["forward"]
     assert forward_inputs["state_encoder"]["dense_1"]["kernel"] is forward_outputs["state_encoder"]["dense_0"]["output"]
     parts = forward_inputs["lstm"]["input_kernel"]
     assert isinstance(parts, tuple) and len(parts) == 3
     assert parts[1] is forward_outputs["offset_encoder"]["dense_2"]["output"]
-    n = RO.num_steps(config, 10)
+    n = RO.num_steps(RO.rollout_spec(config), 10)
     assert parts[0].shape == (n, config.model.encoder_widths[-1])
     assert set(records["tape"]["forward"]["lstm"]) == {"cell_tanh"}
 

@@ -117,7 +117,8 @@ def test_twin_next_frame_states_match_stitchjax(tiny):
     batch = torch_twin.batch_to_torch(data, np.arange(3))
     n = torch_twin.num_steps(config, 12)
     for length in (12, 7, 1):
-        expected = rollout.next_frame_states({k: jnp.asarray(v) for k, v in data.items()}, length, n, config)
+        expected = rollout.next_frame_states({k: jnp.asarray(v) for k, v in data.items()}, length, n,
+                                             rollout.rollout_spec(config))
         got = twin.next_frame_states(batch, length)
         steps = max(torch_twin.schedule(config, length)[2:])
         for name in ("forward", "backward"):
