@@ -322,7 +322,8 @@ class JaxInfer:
             from stitchjax import networks, phase, rollout as rollout_lib
             spec = rollout_lib.rollout_spec(config) if hasattr(rollout_lib, "rollout_spec") else config
             key = jax.random.PRNGKey(seed)
-            self.params = networks.init_params(config, key)
+            model_spec = networks.model_spec(config) if hasattr(networks, "model_spec") else config
+            self.params = networks.init_params(model_spec, key)
             self.phase_params = phase.init_phase_params(key, config.data.num_joints * 4 + 3 + config.data.num_contacts,
                                                         config)
             self.api = "rollout.rollout (vmapped over samples)"

@@ -119,7 +119,7 @@ def prepare_dataset(windows, stats, config, phase_labels=None) -> dict:
     positions = np.asarray(windows.positions, np.float64)
     _, global_positions = skel.forward_kinematics(rotations, positions, parents)
     if phase_labels is None:
-        phase_labels = phase.phase_labels(contacts, windows.fps, config)
+        phase_labels = phase.phase_labels(contacts, windows.fps, config.phase)
     phase_labels = np.asarray(phase_labels, np.float32)
     phase_labels = phase_labels.reshape(phase_labels.shape[:2] + (-1,))
     offsets = positions[:, :1].copy()
@@ -134,13 +134,14 @@ def prepare_dataset(windows, stats, config, phase_labels=None) -> dict:
     }
 
 
-def dataset_states(dataset: dict, config):
-    """Character states of every frame of a prepared dataset, (N, T, S) (phase pretraining input).
+def dataset_states(dataset: dict, velocity_scale: float):
+    """Character states of every frame of a prepared dataset, (N, T, S) (phase pretraining input);
+    velocity_scale: ``data.velocity_scale`` (cm / frame per state unit).
 
     Frame 0 of each window gets the velocity of frame 1 (the window has no previous frame).
     """
     xp = _xp(dataset["root_positions"])
-    velocity = root_velocities(dataset["root_positions"], config.data.velocity_scale)
+    velocity = root_velocities(dataset["root_positions"], velocity_scale)
     velocity = xp.concatenate([velocity[:, 1:2], velocity[:, 1:]], axis=1)
     return state_vector(dataset["rotations"], velocity, dataset["contacts"])
 

@@ -348,7 +348,7 @@ def _direction_terms(out_dir, target, loss_config, skeleton, posterior: str, win
 
 
 def _disc_scores(params, spec, features):
-    """Scores of the short and long discriminators (windows and widths of the ``LossSpec`` `spec`)."""
+    """Scores of the short and long discriminators of a ``networks.DiscriminatorSpec``."""
     short = networks.make_discriminator(spec, "disc_short").apply(params["disc_short"], features)
     long = networks.make_discriminator(spec, "disc_long").apply(params["disc_long"], features)
     return short, long
@@ -367,9 +367,10 @@ def adversarial_generator_terms(params, out, spec, skeleton) -> dict:
         zero = jnp.zeros((), fake.dtype)
         return {"adv_g_short": zero, "adv_g_long": zero, "adv_g": zero}
     mask = out["mask"]
-    short, long = _disc_scores(params, spec, fake)
-    terms = {"adv_g_short": lsgan_generator_loss(short, _window_mask(mask, spec.disc_short_window)),
-             "adv_g_long": lsgan_generator_loss(long, _window_mask(mask, spec.disc_long_window))}
+    discriminators = spec.discriminators
+    short, long = _disc_scores(params, discriminators, fake)
+    terms = {"adv_g_short": lsgan_generator_loss(short, _window_mask(mask, discriminators.short_window)),
+             "adv_g_long": lsgan_generator_loss(long, _window_mask(mask, discriminators.long_window))}
     terms["adv_g"] = terms["adv_g_short"] + terms["adv_g_long"]
     return terms
 
@@ -494,7 +495,7 @@ def discriminator_loss(params, phase_params, batch, key, spec, length, generated
     None = run a rollout here (under stop_gradient). Returns (total, {"adv_d", "adv_d_short", "adv_d_long",
     "d_real", "d_fake"}).
     """
-    skeleton, ls = spec.skeleton, spec.loss
+    skeleton, ls, discriminators = spec.skeleton, spec.loss, spec.loss.discriminators
     if generated is None:
         out = rollout_lib.rollout_batch(jax.lax.stop_gradient(params), phase_params, batch, key, spec.rollout,
                                         length)
@@ -503,10 +504,10 @@ def discriminator_loss(params, phase_params, batch, key, spec, length, generated
     fake = jax.lax.stop_gradient(generated["features"])
     mask = generated["mask"]
     real = _real_features(batch, skeleton, fake.shape[1])
-    real_short, real_long = _disc_scores(params, ls, real)
-    fake_short, fake_long = _disc_scores(params, ls, fake)
-    m_short = _window_mask(mask, ls.disc_short_window)
-    m_long = _window_mask(mask, ls.disc_long_window)
+    real_short, real_long = _disc_scores(params, discriminators, real)
+    fake_short, fake_long = _disc_scores(params, discriminators, fake)
+    m_short = _window_mask(mask, discriminators.short_window)
+    m_long = _window_mask(mask, discriminators.long_window)
     terms = {
         "adv_d_short": lsgan_discriminator_loss(real_short, fake_short, m_short),
         "adv_d_long": lsgan_discriminator_loss(real_long, fake_long, m_long),

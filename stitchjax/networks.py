@@ -26,6 +26,9 @@ the step is a tape point (``stitchjax.tape``), so ``train.scan_remat="taped"`` c
 
 Discriminators (RMIB style): a temporal convolution whose kernel spans the whole window (2 or 10 frames)
 over per-frame features, then dense layers; one score per window position.
+
+Sizes and switches come as frozen specs, not the Config: :class:`GeneratorSpec` and :class:`DiscriminatorSpec`
+(:class:`ModelSpec` holds both), built once by :func:`model_spec` where training starts or a model is loaded.
 """
 from __future__ import annotations
 
@@ -43,7 +46,8 @@ from stitchjax.config import CHOICES
 
 __all__ = [
     "MATMUL_DTYPES", "SHARED_PROBES", "KERNEL_OUTPUT_TAPES", "elu", "matmul", "kernel_matmul", "input_size",
-    "Dense", "LSTMCell", "MLP", "MoEDense", "GeneratorSpec", "generator_spec", "Generator",
+    "Dense", "LSTMCell", "MLP", "MoEDense", "GeneratorSpec", "generator_spec", "DiscriminatorSpec",
+    "discriminator_spec", "ModelSpec", "model_spec", "Generator",
     "Posterior", "LatentMLP", "decode", "sample_latent", "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry", "blend_gaussians",
     "disc_feature_dim", "phase_dim", "generator_input_dims",
 ]
@@ -491,9 +495,41 @@ def phase_dim(spec) -> int:
     return 2 * spec.num_contacts
 
 
-def disc_feature_dim(config) -> int:
-    """Per-frame discriminator features: positions relative to the root (J-1)*3 + root velocity 3."""
-    return (config.data.num_joints - 1) * 3 + 3
+def disc_feature_dim(num_joints: int) -> int:
+    """Per-frame discriminator features of J joints: positions relative to the root (J-1)*3 + root velocity 3."""
+    return (num_joints - 1) * 3 + 3
+
+
+@dataclasses.dataclass(frozen=True)
+class DiscriminatorSpec:
+    """The two LSGAN discriminators (:func:`discriminator_spec`): short_window, long_window (frames; paper /
+    RMIB 2 and 10), widths of the temporal conv and dense layers, feature_dim (:func:`disc_feature_dim`)."""
+
+    short_window: int
+    long_window: int
+    widths: tuple
+    feature_dim: int
+
+
+def discriminator_spec(config) -> DiscriminatorSpec:
+    """The :class:`DiscriminatorSpec` of a Config (``config.model.disc_*``, the joint count of ``config.data``)."""
+    m = config.model
+    return DiscriminatorSpec(short_window=m.disc_short_window, long_window=m.disc_long_window,
+                             widths=tuple(m.disc_widths), feature_dim=disc_feature_dim(config.data.num_joints))
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelSpec:
+    """Every network of a model: generator (:class:`GeneratorSpec`, both directions share it) and
+    discriminators (:class:`DiscriminatorSpec`)."""
+
+    generator: GeneratorSpec
+    discriminators: DiscriminatorSpec
+
+
+def model_spec(config) -> ModelSpec:
+    """The :class:`ModelSpec` of a Config: built once where training starts or a model is loaded."""
+    return ModelSpec(generator=generator_spec(config), discriminators=discriminator_spec(config))
 
 
 def generator_input_dims(spec) -> dict:
@@ -508,10 +544,10 @@ def make_generator(spec) -> Generator:
     return Generator(spec)
 
 
-def make_discriminator(model_config, which: str) -> Discriminator:
-    """The "disc_short" or "disc_long" discriminator of ``config.model``."""
-    window = model_config.disc_short_window if which == "disc_short" else model_config.disc_long_window
-    return Discriminator(window=window, widths=tuple(model_config.disc_widths))
+def make_discriminator(spec, which: str) -> Discriminator:
+    """The "disc_short" or "disc_long" discriminator of a :class:`DiscriminatorSpec`."""
+    window = spec.short_window if which == "disc_short" else spec.long_window
+    return Discriminator(window=window, widths=tuple(spec.widths))
 
 
 def initial_carry(spec, dtype=jnp.float32):
@@ -520,31 +556,26 @@ def initial_carry(spec, dtype=jnp.float32):
     return (zeros, zeros)
 
 
-def init_params(config, key, num_joints: int | None = None) -> dict:
-    """Fresh parameters {"forward", "backward", "disc_short", "disc_long"} (independent generators).
-
-    num_joints: must match config.data.num_joints when given (kept for callers that pass it).
-    Pure jax code: works under ``jax.jit`` and ``jax.eval_shape``.
+def init_params(spec: ModelSpec, key) -> dict:
+    """Fresh parameters {"forward", "backward", "disc_short", "disc_long"} (independent generators) of a
+    :class:`ModelSpec` (:func:`model_spec`). Pure jax code: works under ``jax.jit`` and ``jax.eval_shape``.
     """
-    if num_joints is not None and num_joints != config.data.num_joints:
-        raise ValueError(f"num_joints={num_joints} but config.data.parents has {config.data.num_joints} joints; "
-                         "set data.parents for this skeleton")
-    spec = generator_spec(config)
-    dims = generator_input_dims(spec)
-    generator = make_generator(spec)
+    g, d = spec.generator, spec.discriminators
+    dims = generator_input_dims(g)
+    generator = make_generator(g)
     dummy = {name: jnp.zeros((size,), jnp.float32) for name, size in dims.items()}
 
     def init_generator(k):
-        next_state = dummy["state"] if config.model.posterior != "none" else None
-        return generator.init(k, initial_carry(spec), dummy["state"], dummy["target"], dummy["offset"],
+        next_state = dummy["state"] if g.posterior != "none" else None
+        return generator.init(k, initial_carry(g), dummy["state"], dummy["target"], dummy["offset"],
                               jnp.zeros((), jnp.float32), dummy["phase"], dummy["eps"], next_state)
 
     k_fwd, k_bwd, k_short, k_long = jax.random.split(key, 4)
-    frames = max(config.model.disc_long_window, config.model.disc_short_window)
-    disc_in = jnp.zeros((1, frames, disc_feature_dim(config)), jnp.float32)
+    frames = max(d.long_window, d.short_window)
+    disc_in = jnp.zeros((1, frames, d.feature_dim), jnp.float32)
     return {
         "forward": init_generator(k_fwd),
         "backward": init_generator(k_bwd),
-        "disc_short": make_discriminator(config.model, "disc_short").init(k_short, disc_in),
-        "disc_long": make_discriminator(config.model, "disc_long").init(k_long, disc_in),
+        "disc_short": make_discriminator(d, "disc_short").init(k_short, disc_in),
+        "disc_long": make_discriminator(d, "disc_long").init(k_long, disc_in),
     }

@@ -15,8 +15,9 @@ whole clip and slicing it gives better labels near window borders than labelling
 The phase network (``PhaseNetwork``) maps the per-frame character state (``features.state_vector``,
 size J*4 + 7) to the P = 2*C phase features; ``pretrain_phase`` fits it to the labels with Adam.
 
-Settings are the ``phase`` section of the config (``stitchjax.config.PhaseConfig``): functions take a
-``Config``, a ``PhaseConfig`` or None (the defaults), and keyword arguments override single fields.
+Settings are the ``phase`` section of the config (``stitchjax.config.PhaseConfig``): functions take that
+section as ``settings`` (a whole ``Config`` is read for its ``.phase``; None = the defaults), and keyword
+arguments override single fields.
 """
 from __future__ import annotations
 
@@ -45,10 +46,10 @@ class PhaseError(ValueError):
 _FIELDS = tuple(f.name for f in dataclasses.fields(PhaseConfig))
 
 
-def phase_settings(config: Any = None, **overrides: Any) -> PhaseConfig:
-    """Settings from a ``Config`` (uses ``.phase``), a ``PhaseConfig``, or None (the defaults), plus
+def phase_settings(settings: Any = None, **overrides: Any) -> PhaseConfig:
+    """Settings from a ``PhaseConfig``, a ``Config`` (uses ``.phase``) or None (the defaults), plus
     keyword overrides; checked."""
-    source = getattr(config, "phase", config)
+    source = getattr(settings, "phase", settings)
     values = {}
     for name in _FIELDS:
         if source is not None and hasattr(source, name):
@@ -208,7 +209,7 @@ def _fit_rows(y: np.ndarray, fps: float, settings: PhaseConfig, freqs: np.ndarra
     return chosen[..., 0], chosen[..., 1], chosen[..., 2], freqs[best]
 
 
-def fit_local_phase(contacts: Any, fps: float, config: Any = None, **overrides: Any) -> LocalPhase:
+def fit_local_phase(contacts: Any, fps: float, settings: Any = None, **overrides: Any) -> LocalPhase:
     """Local phase fit of every frame and contact channel.
 
     contacts: (..., T, C) contact signals (0/1 floats), any leading axes (clips or windows); each
@@ -222,7 +223,7 @@ def fit_local_phase(contacts: Any, fps: float, config: Any = None, **overrides: 
         raise PhaseError("contacts contain NaN or inf; pass 0/1 contact floats")
     if not fps > 0:
         raise PhaseError(f"fps must be positive, got {fps}")
-    settings = phase_settings(config, **overrides)
+    settings = phase_settings(settings, **overrides)
     freqs = frequency_grid(settings)
     *lead, num_frames, num_channels = contacts.shape
     rows = np.moveaxis(contacts, -1, -2).reshape(-1, num_frames)  # (R, T), R = prod(lead) * C
@@ -241,13 +242,13 @@ def fit_local_phase(contacts: Any, fps: float, config: Any = None, **overrides: 
                       frequency=freq.astype(np.float32), offset=offset.astype(np.float32))
 
 
-def phase_labels(contacts: Any, fps: float, config: Any = None, **overrides: Any) -> np.ndarray:
+def phase_labels(contacts: Any, fps: float, settings: Any = None, **overrides: Any) -> np.ndarray:
     """Phase labels A (sin 2 pi phi, cos 2 pi phi): (..., T, C) contacts -> (..., T, C, 2) float32.
 
     Works on one clip (T, C) or on batches of windows (N, T, C); flatten the last two axes for the
     network target: ``labels.reshape(*labels.shape[:-2], -1)`` -> (..., T, 2*C).
     """
-    return fit_local_phase(contacts, fps, config, **overrides).features().astype(np.float32)
+    return fit_local_phase(contacts, fps, settings, **overrides).features().astype(np.float32)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -281,10 +282,10 @@ def _network_from_params(phase_params: Any) -> PhaseNetwork:
     return PhaseNetwork(hidden_dims=tuple(hidden), num_outputs=outputs)
 
 
-def init_phase_params(key: jax.Array, state_dim: int, config: Any = None, num_outputs: int = 8,
+def init_phase_params(key: jax.Array, state_dim: int, settings: Any = None, num_outputs: int = 8,
                       **overrides: Any) -> dict:
     """Fresh PhaseNetwork parameters for states of size ``state_dim`` (J*4 + 7)."""
-    settings = phase_settings(config, **overrides)
+    settings = phase_settings(settings, **overrides)
     network = PhaseNetwork(hidden_dims=(settings.hidden_dim,) * settings.num_layers, num_outputs=num_outputs)
     return network.init(key, jnp.zeros((1, state_dim), jnp.float32))
 
@@ -314,7 +315,7 @@ def _train(params, states, labels, key, learning_rate, steps: int, batch_size: i
     return params, losses
 
 
-def pretrain_phase(key: jax.Array, states: Any, labels: Any, config: Any = None,
+def pretrain_phase(key: jax.Array, states: Any, labels: Any, settings: Any = None,
                    **overrides: Any) -> tuple[dict, jax.Array]:
     """Fit a fresh PhaseNetwork to phase labels with Adam (one jitted ``lax.scan`` over steps).
 
@@ -322,7 +323,7 @@ def pretrain_phase(key: jax.Array, states: Any, labels: Any, config: Any = None,
     ``batch_size`` frames are drawn with replacement using ``fold_in(key, step)``.
     Returns (params, final_loss): final_loss is the mean minibatch MSE over the last 5% of steps.
     """
-    settings = phase_settings(config, **overrides)
+    settings = phase_settings(settings, **overrides)
     states = jnp.asarray(states, jnp.float32)
     labels = jnp.asarray(labels, jnp.float32)
     if states.ndim != 2 or labels.ndim != 2 or states.shape[0] != labels.shape[0] or states.shape[0] == 0:

@@ -73,8 +73,8 @@ def _saved_config(workdir) -> tuple[int, dict]:
 def _differing_sections(saved: dict, config_json: dict, sections: tuple, ignore: tuple = ()) -> list:
     """The config sections among `sections` whose saved and current values differ; `ignore`: (section,
     field) pairs left out of the comparison."""
-    def part(config, section):
-        values = dict(config.get(section) or {})
+    def part(config_json, section):
+        values = dict(config_json.get(section) or {})
         for ignored_section, field in ignore:
             if ignored_section == section:
                 values.pop(field, None)

@@ -30,6 +30,10 @@ frame it makes, next to the frame it targets) or n / (L + 1) ("transition").
 Latent source: with ``ground_truth`` (training, ``model.posterior="next_frame"``) every step draws z from the
 posterior q(z | h, ground-truth state of the frame it makes); without it z comes from the prior p (inference).
 
+Settings: every function reads a :class:`RolloutSpec` (L's scan, K, the gamma schedule, the generator's
+sizes and switches), built once by :func:`rollout_spec` where the train step is made (``specs.train_spec``)
+or a model is loaded (``trained_model.Model.rollout_spec``), never the whole Config.
+
 Gradients: with ``train.weight_gradients_after_scan`` (default) the generators' kernel gradients are formed
 after the scan, one matmul per kernel (``stitchjax.scan_gradients``); same numbers, less time. With
 ``train.scan_remat="taped"`` the scan runs twice, recording then replaying a tape (``stitchjax.tape``), so

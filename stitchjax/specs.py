@@ -17,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from stitchjax import conform, datasets
+from stitchjax import conform, datasets, networks
 from stitchjax import rollout as rollout_lib
 
 __all__ = ["SkeletonSpec", "LossSpec", "TrainSpec", "skeleton_spec", "loss_spec", "train_spec"]
@@ -54,16 +54,13 @@ class LossSpec:
 
     loss: ``config.loss`` (frozen: betas, alphas, reduction, KL and prior settings, foot terms);
     posterior: ``model.posterior`` ("none" = the paper's KL(p || N(0, I))); bidirectional: both generators
-    are scored; disc_short_window / disc_long_window (frames) and disc_widths: the two discriminators
-    (``networks.make_discriminator`` reads these three).
+    are scored; discriminators: the two discriminators (``networks.DiscriminatorSpec``).
     """
 
     loss: Any
     posterior: str
     bidirectional: bool
-    disc_short_window: int
-    disc_long_window: int
-    disc_widths: tuple
+    discriminators: networks.DiscriminatorSpec
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,8 +90,7 @@ def loss_spec(config) -> LossSpec:
     """The :class:`LossSpec` of `config` (``config.loss`` and the model switches the objective reads)."""
     m = config.model
     return LossSpec(loss=config.loss, posterior=m.posterior, bidirectional=m.bidirectional,
-                    disc_short_window=m.disc_short_window, disc_long_window=m.disc_long_window,
-                    disc_widths=tuple(m.disc_widths))
+                    discriminators=networks.discriminator_spec(config))
 
 
 def train_spec(config) -> TrainSpec:

@@ -102,9 +102,10 @@ def create_train_state(config, key: jax.Array, phase_params: Any = None, mesh: M
     optimizer = make_optimizer(config.train)
     mesh = parallel.make_mesh() if mesh is None else mesh
     init_key, phase_key, state_key = jax.random.split(key, 3)
+    spec = networks.model_spec(config)
 
     def init(init_key, phase_key, state_key, phase_params):
-        params = networks.init_params(config, init_key)
+        params = networks.init_params(spec, init_key)
         if phase_params is None:
             phase_params = init_phase_params(config, phase_key)
         generators, discriminators = split_params(params)
@@ -122,7 +123,7 @@ def create_train_state(config, key: jax.Array, phase_params: Any = None, mesh: M
 
 def init_phase_params(config, key: jax.Array) -> Any:
     """Randomly initialised phase network params ({} when the model does not use one)."""
-    return phase.init_phase_params(key, state_dim(config), config)
+    return phase.init_phase_params(key, state_dim(config), config.phase)
 
 
 def state_dim(config) -> int:
@@ -265,17 +266,17 @@ def check_finite(metrics: dict, step: int) -> None:
 def pretrain_phase_params(config, dataset: dict, key: jax.Array):
     """Pretrain the phase network on every frame of the training windows (and, with
     ``phase.include_reversed``, of the same windows played backwards); (params, final_loss)."""
-    states = np.asarray(features.dataset_states(dataset, config))
+    states = np.asarray(features.dataset_states(dataset, config.data.velocity_scale))
     states = states.reshape(-1, states.shape[-1])
     labels = np.asarray(dataset["phase"]).reshape(states.shape[0], -1)
     if config.phase.include_reversed:  # the backward generator's states: time-reversed windows
         reversed_windows = reverse_time(dataset)
-        rev_states = np.asarray(features.dataset_states(reversed_windows, config))
-        rev_labels = phase.phase_labels(reversed_windows["contacts"], config.data.fps, config)
+        rev_states = np.asarray(features.dataset_states(reversed_windows, config.data.velocity_scale))
+        rev_labels = phase.phase_labels(reversed_windows["contacts"], config.data.fps, config.phase)
         states = np.concatenate([states, rev_states.reshape(-1, states.shape[-1])])
         labels = np.concatenate([labels, np.asarray(rev_labels, np.float32).reshape(rev_states.shape[0] *
                                                                                     rev_states.shape[1], -1)])
-    return phase.pretrain_phase(key, states, labels, config)
+    return phase.pretrain_phase(key, states, labels, config.phase)
 
 
 def reverse_time(dataset: dict) -> dict:

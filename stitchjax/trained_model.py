@@ -186,11 +186,12 @@ def _sampling_abstract(config) -> dict:
     """Shapes (replicated) of what sampling restores from a train state: {"params": {"forward", "backward"}}
     and, with phase modulation, {"phase_params": ...}; no discriminator, no optimiser state."""
     key = jax.random.PRNGKey(0)
-    generators = jax.eval_shape(lambda k: networks.init_params(config, k), key)
+    spec = networks.model_spec(config)
+    generators = jax.eval_shape(lambda k: networks.init_params(spec, k), key)
     wanted = {"params": {"forward": generators["forward"], "backward": generators["backward"]}}
     if config.model.phase_modulation:
         wanted["phase_params"] = jax.eval_shape(
-            lambda k: phase.init_phase_params(k, features.state_dim(config), config), key)
+            lambda k: phase.init_phase_params(k, features.state_dim(config), config.phase), key)
     sharding = parallel.replicated(parallel.make_mesh())
     return jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), wanted)
 
@@ -394,10 +395,12 @@ def model_from_state(config, state, stats_json: dict | None, facts: dict | None,
 def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None) -> Model:
     """A freshly initialised model (untrained): for timing, tests and shape checks."""
     key = jax.random.PRNGKey(seed)
-    params = jax.jit(lambda k: networks.init_params(config, k))(key)
+    spec = networks.model_spec(config)
+    params = jax.jit(lambda k: networks.init_params(spec, k))(key)
     phase_params = None
     if config.model.phase_modulation:
-        phase_params = phase.init_phase_params(jax.random.fold_in(key, 1), features.state_dim(config), config)
+        phase_params = phase.init_phase_params(jax.random.fold_in(key, 1), features.state_dim(config),
+                                               config.phase)
     fields = _facts_fields(config, None)
     if joint_names is not None:
         fields["joint_names"] = tuple(joint_names)

@@ -74,7 +74,7 @@ def setup():
     from stitchjax import phase
 
     config = C.load_config("tiny")
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     phase_params = phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config), config)
     return config, params, phase_params, synthetic_batch()
 
@@ -146,7 +146,7 @@ def test_prepare_dataset_on_synthetic_windows():
     assert all(v.dtype == np.float32 for v in data.values())
     _, gpos = S.forward_kinematics(q, positions, S.LAFAN1_PARENTS)
     np.testing.assert_allclose(data["global_positions"], gpos, rtol=1e-4, atol=1e-3)
-    states = F.dataset_states(data, config)
+    states = F.dataset_states(data, config.data.velocity_scale)
     assert states.shape == (n, t, F.state_dim(config))
     bad = C.apply_overrides(config, ["data.parents=-1,0,1"])
     with pytest.raises(F.DatasetError, match="parents"):
@@ -323,7 +323,7 @@ def test_with_every_extension_off_the_objective_is_eq9_term_for_term(setup, post
     features = jnp.asarray(np.concatenate([rel, velocity], axis=-1), jnp.float32)
     adv = 0.0
     for which in ("disc_short", "disc_long"):
-        scores = f64(N.make_discriminator(config.model, which).apply(params[which], features))
+        scores = f64(N.make_discriminator(N.discriminator_spec(config), which).apply(params[which], features))
         window = config.model.disc_short_window if which == "disc_short" else config.model.disc_long_window
         valid = (np.arange(scores.shape[1])[None, :] + window <= motion_mask.sum(1, keepdims=True)).astype(np.float64)
         adv += 0.5 * float(np.sum((scores - 1.0) ** 2 * valid) / valid.sum())

@@ -17,7 +17,7 @@ def tiny_config(*extra):
 
 def test_init_params_and_generator_shapes():
     config = tiny_config()
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     assert set(params) == {"forward", "backward", "disc_short", "disc_long"}
     kernel = params["forward"]["params"]["current_head"]["kernel"]
     assert not np.allclose(kernel, params["backward"]["params"]["current_head"]["kernel"])  # independent
@@ -35,16 +35,16 @@ def test_init_params_and_generator_shapes():
     for key in ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend"):
         assert out[key].shape == (b, 4)
     # eval_shape-friendly init gives the same structure
-    abstract = jax.eval_shape(lambda k: N.init_params(config, k), jax.random.PRNGKey(0))
+    abstract = jax.eval_shape(lambda k: N.init_params(N.model_spec(config), k), jax.random.PRNGKey(0))
     assert jax.tree.structure(abstract) == jax.tree.structure(params)
 
 
 def test_discriminator_scores_one_per_window_position():
     config = tiny_config("model.disc_long_window=10")  # the paper's 2- and 10-frame windows
-    params = N.init_params(config, jax.random.PRNGKey(0))
-    feats = jnp.ones((2, 12, N.disc_feature_dim(config)))
-    short = N.make_discriminator(config.model, "disc_short").apply(params["disc_short"], feats)
-    long = N.make_discriminator(config.model, "disc_long").apply(params["disc_long"], feats)
+    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    feats = jnp.ones((2, 12, N.disc_feature_dim(config.data.num_joints)))
+    short = N.make_discriminator(N.discriminator_spec(config), "disc_short").apply(params["disc_short"], feats)
+    long = N.make_discriminator(N.discriminator_spec(config), "disc_long").apply(params["disc_long"], feats)
     assert short.shape == (2, 11) and long.shape == (2, 3)
 
 
@@ -82,8 +82,9 @@ def test_blend_gaussians_endpoints_and_modes():
 
 
 def test_plain_decoder_without_phase_modulation():
-    with_phase = N.init_params(tiny_config(), jax.random.PRNGKey(0))["forward"]["params"]
-    plain = N.init_params(tiny_config("model.phase_modulation=false"), jax.random.PRNGKey(0))["forward"]["params"]
+    with_phase = N.init_params(N.model_spec(tiny_config()), jax.random.PRNGKey(0))["forward"]["params"]
+    plain_spec = N.model_spec(tiny_config("model.phase_modulation=false"))
+    plain = N.init_params(plain_spec, jax.random.PRNGKey(0))["forward"]["params"]
     assert "gating" in with_phase and "expert_0" in with_phase and "decoder" not in with_phase
     assert "gating" not in plain and "expert_0" not in plain and "decoder" in plain
 
@@ -198,8 +199,8 @@ def test_bfloat16_matmul_rounds_only_the_operands_forward_and_backward():
 def test_generator_matmul_dtype_keeps_parameters_and_changes_outputs_slightly():
     config = tiny_config()
     low = tiny_config("model.matmul_dtype=bfloat16")
-    params = N.init_params(config, jax.random.PRNGKey(0))
-    low_params = N.init_params(low, jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    low_params = N.init_params(N.model_spec(low), jax.random.PRNGKey(0))
     assert jax.tree.structure(params) == jax.tree.structure(low_params)
     for a, b in zip(jax.tree.leaves(params), jax.tree.leaves(low_params)):
         assert a.dtype == b.dtype == jnp.float32

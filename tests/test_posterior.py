@@ -27,7 +27,7 @@ def _generator_loss(params, phase_params, batch, key, config, length):
 @pytest.fixture(scope="module")
 def setup():
     config = tiny_config()
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     return config, params, phase_params_for(config), synthetic_batch()
 
 
@@ -45,7 +45,7 @@ def _changed_in_between(batch, seed=5):
 def test_posterior_params_exist_only_with_a_posterior(setup):
     config, params, _, _ = setup
     assert "posterior" in params["forward"]["params"] and "posterior" in params["backward"]["params"]
-    legacy = N.init_params(tiny_config("model.posterior=none"), jax.random.PRNGKey(0))
+    legacy = N.init_params(N.model_spec(tiny_config("model.posterior=none")), jax.random.PRNGKey(0))
     assert "posterior" not in legacy["forward"]["params"]
 
 
@@ -264,7 +264,7 @@ def test_near_keyframe_weight_reweighs_only_the_frames_next_to_the_keyframes(set
     direction's first generated frame (frames 1 and L); at 1 nothing changes; above 1 the terms change."""
     _, params, phase_params, batch = setup
     config = tiny_config("model.posterior=none")  # the rollout then reads no in-between ground truth
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     key = jax.random.PRNGKey(1)
     rng = np.random.default_rng(3)
     changed = dict(batch)
@@ -323,7 +323,7 @@ def test_noise_ramp_factors():
 
 def test_noise_ramp_puts_the_frames_next_to_the_keyframes_on_the_mean_path():
     config = tiny_config()
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     batch = synthetic_batch()
     length = 10
     start, target, offsets = jax.tree.map(lambda x: x[0], RO.keyframes_from_batch(batch, length))

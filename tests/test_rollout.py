@@ -40,7 +40,7 @@ def phase_params_for(config):
 @pytest.fixture(scope="module")
 def setup():
     config = tiny_config()
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     phase_params = phase_params_for(config)
     # z from the prior, as at inference (the posterior path is tested in test_posterior.py)
     spec = RO.rollout_spec(config)
@@ -104,9 +104,9 @@ def test_each_ablation_runs_and_changes_the_output(setup, switch):
     config, params, phase_params, batch, fn = setup
     ablated = tiny_config(switch)
     if switch.startswith("model.phase_modulation"):
-        params = N.init_params(ablated, jax.random.PRNGKey(0))
+        params = N.init_params(N.model_spec(ablated), jax.random.PRNGKey(0))
     length = jnp.int32(8)
-    full = fn(params if "phase" not in switch else N.init_params(config, jax.random.PRNGKey(0)),
+    full = fn(params if "phase" not in switch else N.init_params(N.model_spec(config), jax.random.PRNGKey(0)),
               phase_params, batch, jax.random.PRNGKey(1), length)
     out = jax.jit(lambda p, pp, b, k, n: RO.rollout_batch(p, pp, b, k, RO.rollout_spec(ablated), n))(
         params, phase_params, batch, jax.random.PRNGKey(1), length)
@@ -188,7 +188,7 @@ def test_taped_scan_gives_the_gradients_of_plain_autodiff(extra):
     def gradients(*flags):
         config = tiny_config(*extra, *flags)
         spec = specs.train_spec(config)
-        params = N.init_params(config, jax.random.PRNGKey(0))
+        params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
         generators = {k: params[k] for k in ("forward", "backward")}
 
         def loss(gen, pp, b):
@@ -208,7 +208,7 @@ def test_taped_scan_gives_the_gradients_of_plain_autodiff(extra):
 
 def test_taped_scan_refuses_an_activation_it_cannot_tape():
     config = tiny_config("train.scan_remat=taped", "model.activation=gelu")
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     with pytest.raises(ValueError, match="scan_remat=taped cannot tape model.activation='gelu'"):
         RO.rollout_batch(params, phase_params_for(config), synthetic_batch(), jax.random.PRNGKey(1),
                          RO.rollout_spec(config), 7)
@@ -218,7 +218,7 @@ def test_recorded_values_are_stacked_once():
     """Recording, an activation that is also the next layer's matmul input comes out of the scan as one
     array, and the LSTM input's parts are the encoders' taped outputs themselves."""
     config = tiny_config()
-    params = N.init_params(config, jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     batch = synthetic_batch()
     start, target, offsets = RO.keyframes_from_batch(batch, 7)
     one = jax.tree.map(lambda x: x[0], (start, target, offsets))
