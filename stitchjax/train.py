@@ -177,6 +177,7 @@ def make_update_step(config, mesh: Mesh | None = None,
     mesh = parallel.make_mesh() if mesh is None else mesh
     optimizer = make_optimizer(config.train)
     spec = specs.train_spec(config)
+    tc, kl_warmup_steps = config.train, config.loss.kl_warmup_steps  # the update reads no other setting
 
     def update(state: TrainState, batch: dict, length: jax.Array):
         key = jax.random.fold_in(state.key, state.step)
@@ -185,7 +186,7 @@ def make_update_step(config, mesh: Mesh | None = None,
 
         extra = {}
         if takes_kl_scale:
-            extra["kl_scale"] = losses.kl_warmup(state.step, config.loss.kl_warmup_steps)
+            extra["kl_scale"] = losses.kl_warmup(state.step, kl_warmup_steps)
 
         def gen_objective(gen_params):
             out = generator_loss({**gen_params, **discriminators}, state.phase_params, batch, gen_key,
@@ -206,8 +207,8 @@ def make_update_step(config, mesh: Mesh | None = None,
 
         gen_updates, gen_opt_state = optimizer.update(gen_grads, state.gen_opt_state, generators)
         disc_updates, disc_opt_state = optimizer.update(disc_grads, state.disc_opt_state, discriminators)
-        if config.train.lr_decay_to != 1.0:  # AdamW's update is linear in the learning rate: scale it
-            lr_factor = schedule.learning_rate_factor(state.step, config.train)
+        if tc.lr_decay_to != 1.0:  # AdamW's update is linear in the learning rate: scale it
+            lr_factor = schedule.learning_rate_factor(state.step, tc)
             gen_updates = jax.tree.map(lambda u: u * lr_factor, gen_updates)
             disc_updates = jax.tree.map(lambda u: u * lr_factor, disc_updates)
         new_params = {**optax.apply_updates(generators, gen_updates),
@@ -220,8 +221,8 @@ def make_update_step(config, mesh: Mesh | None = None,
         metrics["disc_grad_norm"] = optax.tree.norm(disc_grads)
         metrics = {name: jnp.asarray(value, jnp.float32) for name, value in metrics.items()}
         metrics["length"] = jnp.asarray(length, jnp.int32)
-        if config.train.lr_decay_to != 1.0:
-            metrics["lr"] = config.train.learning_rate * lr_factor
+        if tc.lr_decay_to != 1.0:
+            metrics["lr"] = tc.learning_rate * lr_factor
         new_state = state.replace(step=state.step + 1, params=new_params, gen_opt_state=gen_opt_state,
                                   disc_opt_state=disc_opt_state)
         return new_state, metrics
