@@ -46,7 +46,8 @@ from stitchjax import rotations as R
 from stitchjax.skeleton import Skeleton, forward_kinematics
 
 __all__ = ["FootLockConfig", "DEFAULT_CONFIG", "leg_chains", "stance_score", "hysteresis", "drop_short_spans",
-           "span_targets", "release_room", "reachable_spans", "blended_corrections", "soft_reach", "two_bone_ik", "lock_feet",
+           "span_targets", "release_room", "reachable_spans", "bridge_gaps", "blended_corrections", "eased_plants",
+           "clearance_lift", "soft_reach", "two_bone_ik", "lock_feet",
            "lock_transitions"]
 
 FOOT_NAMES = ("LeftFoot", "LeftToe", "RightFoot", "RightToe")
@@ -74,24 +75,40 @@ class FootLockConfig:
       leaving a plant follows the generated foot up sooner than across.
     step_lift: a foot eased from or to a plant is lifted on an arc of this fraction of the horizontal
       distance it makes up (0: slides back along the ground), at most ``max_step_height`` cm: a step.
+    bridge_frames: gaps of at most this many frames between two spans are filled (a flicker of the score
+      ends no span).
+    ease_to_plant: ease the foot between its plant and the generated foot's current place (position and
+      orientation), so a foot leaves a plant and lands on one at rest; False: ease the correction of the
+      span's last frame away (the foot leaves at the generated foot's speed).
+    clearance: a foot that moves (faster than ``clearance_speed`` cm/frame) within this height (cm) of the
+      ground while the model predicts contact, outside spans, is lifted to it: it steps instead of
+      skating (0: off). The lift is eased in and out over ``clearance_frames`` frames.
+    pole_hint: the ankle-to-toe vector times this is added to the knee's pole (:func:`two_bone_ik`), so a
+      nearly straight leg bends its knee over the toes, as legs do, instead of where rounding points (0: off).
     up_axis: the vertical axis of the positions.
     """
 
-    contact_full: float = 0.2
+    contact_full: float = 0.1
     height: float = 6.0
     speed: float = 6.0
     enter: float = 0.5
     leave: float = 0.1
     min_frames: int = 3
-    blend_frames: int = 12
+    blend_frames: int = 8
     soft_reach: float = 0.97
     leash: float = 25.0
     plant_at: float = 0.0
     release_speed: float = 2.0
     hold_while_low: bool = False
     lift_power: float = 3.0
-    step_lift: float = 0.5
-    max_step_height: float = 6.0
+    step_lift: float = 0.2
+    max_step_height: float = 3.0
+    bridge_frames: int = 2
+    ease_to_plant: bool = True
+    clearance: float = 4.0
+    clearance_speed: float = 2.0
+    clearance_frames: int = 2
+    pole_hint: float = 0.3
     up_axis: int = 1
 
     def __post_init__(self):
@@ -103,6 +120,9 @@ class FootLockConfig:
             raise ValueError(f"foot lock: soft_reach must be in (0, 1), got {self.soft_reach}")
         if self.contact_full <= 0 or self.height <= 0 or self.speed <= 0:
             raise ValueError("foot lock: contact_full, height and speed must be > 0")
+        if self.bridge_frames < 0 or self.clearance < 0 or self.clearance_speed <= 0 or self.clearance_frames < 0:
+            raise ValueError("foot lock: bridge_frames, clearance, clearance_frames must be >= 0, "
+                             "clearance_speed > 0")
 
 
 DEFAULT_CONFIG = FootLockConfig()
@@ -242,6 +262,101 @@ def reachable_spans(mask, reachable):
     return forward | backward
 
 
+def bridge_gaps(mask, max_gap: int):
+    """(T,) bool: ``mask`` with its gaps of at most ``max_gap`` frames between two runs filled."""
+    if max_gap <= 0:
+        return mask
+    n = mask.shape[0]
+    t = jnp.arange(n)
+    ids = _span_ids(~mask)
+    first = jax.ops.segment_min(t, ids, num_segments=n + 1)[ids]
+    last = jax.ops.segment_max(t, ids, num_segments=n + 1)[ids]
+    inner = (first > 0) & (last < n - 1) & (last - first + 1 <= max_gap)
+    return mask | (~mask & inner)
+
+
+def _frames_from(anchor):
+    """(T,) frames since the last anchor and (T,) frames to the next one (0 at anchors; T where none)."""
+    n = anchor.shape[0]
+
+    def step(d, a):
+        d = jnp.where(a, 0, d + 1)
+        return d, d
+    since = jax.lax.scan(step, jnp.asarray(n), anchor)[1]
+    until = jax.lax.scan(step, jnp.asarray(n), anchor[::-1])[1][::-1]
+    return since, until
+
+
+def eased_plants(anchor, free, target, target_rotation, ankle, foot_rotation, blend_frames: int,
+                 lift_power: float = 1.0, up_axis: int = 1):
+    """Ankle corrections that ease the foot between its plants and the generated foot.
+
+    anchor: (T,) bool (the kept span frames and both keyframes); free: (T,) bool anchors that plant nothing
+    (keyframes outside spans: no correction there); target: (T, 3) the plant of each anchor; target_rotation:
+    (T, 4) its foot rotation; ankle: (T, 3) the generated ankle; foot_rotation: (T, 4) its global rotation.
+    Between two anchors dp frames after the one and dn before the next, each side's plant has the weight
+    w = smoothstep(1 - d / min(blend_frames + 1, dp + dn)) (the two sum to at most 1, as in
+    :func:`blended_corrections`), and the foot is put at w_prev plant_prev + w_next plant_next + the rest
+    of the generated foot (vertically with the weights to the power ``lift_power``): it leaves a plant and
+    lands on one at rest, and follows the generated foot in between. Returns (offset (T, 3) to add to the
+    ankle, turn (T, 4) the foot's correcting rotation (identity where no plant weighs), weight (T,) the
+    larger plant weight, 1 at planting anchors, arc (T,): 4 w (1 - w) x the horizontal distance from each
+    side's plant, summed, 0 at anchors)."""
+    identity = jnp.zeros_like(foot_rotation).at[:, 0].set(1.0)
+    planting = (anchor & ~free).astype(ankle.dtype)
+
+    def step(carry, x):
+        a, p, q, k = x
+        carry = tuple(jnp.where(a, new, old) for new, old in zip((p, q, k), carry))
+        return carry, carry
+
+    init = (jnp.zeros(3, ankle.dtype), identity[0], jnp.asarray(0.0, ankle.dtype))
+    xs = (anchor, target, target_rotation, planting)
+    _, (p_prev, q_prev, k_prev) = jax.lax.scan(step, init, xs)
+    _, (p_next, q_next, k_next) = jax.lax.scan(step, init, tuple(x[::-1] for x in xs))
+    p_next, q_next, k_next = p_next[::-1], q_next[::-1], k_next[::-1]
+    since, until = _frames_from(anchor)
+    gap = jnp.maximum(since + until, 1)
+    reach = jnp.minimum(blend_frames + 1, gap).astype(ankle.dtype)
+    w_prev = jnp.where(anchor, 1.0, _smoothstep(1.0 - since / reach)) * k_prev
+    w_next = jnp.where(anchor, 0.0, _smoothstep(1.0 - until / reach)) * k_next
+    to_prev, to_next = p_prev - ankle, p_next - ankle
+    offset = w_prev[:, None] * to_prev + w_next[:, None] * to_next
+    vertical = w_prev**lift_power * to_prev[:, up_axis] + w_next**lift_power * to_next[:, up_axis]
+    offset = offset.at[:, up_axis].set(vertical)
+    across = lambda o: jnp.sqrt(jnp.sum(o.at[:, up_axis].set(0.0) ** 2, axis=-1) + 1e-12)  # noqa: E731
+    arc = 4.0 * (w_prev * (1.0 - w_prev) * across(to_prev) + w_next * (1.0 - w_next) * across(to_next))
+    rest = (1.0 - w_prev - w_next)[:, None]
+    foot = R.quat_normalize(w_prev[:, None] * _aligned(q_prev, foot_rotation)
+                            + w_next[:, None] * _aligned(q_next, foot_rotation) + rest * foot_rotation)
+    weight = jnp.maximum(w_prev, w_next)
+    turn = jnp.where((weight > 0)[:, None], R.quat_mul(foot, R.quat_conjugate(foot_rotation)), identity)
+    return offset, turn, weight, arc
+
+
+def clearance_lift(height, speed, contact, anchor, clearance: float, clearance_speed: float, frames: int):
+    """(T,) how far (cm) to lift a foot that moves low outside its plants, so that it steps clear.
+
+    height: (T,) the foot's lowest joint above the ground (cm) after the plants' corrections; speed: (T,)
+    its horizontal speed (cm/frame); contact: (T,) in [0, 1] the contact factor (0: the model predicts no
+    contact, no lift); anchor: (T,) bool planted frames and keyframes (no lift). The need at a frame is
+    (clearance - height)+ x ramp(speed) (0 below half ``clearance_speed``, 1 from it) x contact; the lift
+    is the largest need within ``frames`` frames, tapered linearly with the distance, and eased to 0 over
+    ``frames`` + 1 frames next to an anchor, so it starts before the foot moves and never jumps."""
+    ramp = jnp.clip(2.0 * speed / clearance_speed - 1.0, 0.0, 1.0)
+    need = jnp.clip(clearance - height, 0.0, clearance) * ramp * contact
+    need = jnp.where(anchor, 0.0, need)
+    n = need.shape[0]
+    lift = need
+    for k in range(1, frames + 1):
+        taper = 1.0 - k / (frames + 1.0)
+        padded = jnp.pad(need, (k, k))
+        lift = jnp.maximum(lift, taper * jnp.maximum(padded[:n], padded[2 * k:]))
+    since, until = _frames_from(anchor)
+    near = jnp.minimum(since, until).astype(need.dtype)
+    return lift * _smoothstep(near / (frames + 1.0))
+
+
 def _smoothstep(x):
     x = jnp.clip(x, 0.0, 1.0)
     return x * x * (3.0 - 2.0 * x)
@@ -297,12 +412,14 @@ def soft_reach(distance, length, soft: float):
     return jnp.where(distance > knee, eased, distance)
 
 
-def two_bone_ik(hip, knee, ankle, target, upper, lower, soft: float = DEFAULT_CONFIG.soft_reach):
+def two_bone_ik(hip, knee, ankle, target, upper, lower, soft: float = DEFAULT_CONFIG.soft_reach, hint=None):
     """Two-bone IK: the hip and knee turns that bring the ankle to ``target`` (softened near full reach).
 
     hip, knee, ankle: (..., 3) the joints' positions now; target: (..., 3); upper, lower: (...) the thigh
     and shin lengths. The knee stays in the plane through the hip, the target and the current knee (pole
     vector: the current knee), so it bends the way it bends now and never flips.
+    hint: (..., 3) or None: a direction added to the pole (e.g. the foot's forward direction, scaled), so the
+    knee bends a known way where the leg is nearly straight and the current knee says little.
     Returns (hip turn (..., 4), knee turn (..., 4), new knee (..., 3), new ankle (..., 3), reach ratio (...)):
     the turns are global rotations applied before the joints' own (new global rotation of the hip =
     hip turn * old; of the knee = knee turn * hip turn * old); the ratio is |target - hip| / (upper + lower).
@@ -316,7 +433,8 @@ def two_bone_ik(hip, knee, ankle, target, upper, lower, soft: float = DEFAULT_CO
     along = (upper**2 - lower**2 + reach**2) / (2.0 * reach)
     across = jnp.sqrt(jnp.maximum(upper**2 - along**2, 0.0))
     bend = knee - hip
-    pole = bend - jnp.sum(bend * direction, axis=-1, keepdims=True) * direction
+    pole = bend if hint is None else bend + hint
+    pole = pole - jnp.sum(pole * direction, axis=-1, keepdims=True) * direction
     pole = pole / jnp.sqrt(jnp.sum(pole**2, axis=-1, keepdims=True) + (1e-6 * length[..., None]) ** 2)
     new_knee = hip + along[..., None] * direction + across[..., None] * pole
     new_ankle = hip + reach[..., None] * direction
@@ -363,7 +481,8 @@ def _lock_one(rotations, root_positions, contacts, offsets, legs: tuple, parents
         contact = jnp.maximum(contacts[:, c_ankle], contacts[:, c_toe])
         score = stance_score(contact, height, speed, config)
         stay = stance_score(contact, height, jnp.zeros_like(speed), config) if config.hold_while_low else score
-        spans = drop_short_spans(hysteresis(score, config.enter, config.leave, stay), config.min_frames)
+        spans = hysteresis(score, config.enter, config.leave, stay)
+        spans = drop_short_spans(bridge_gaps(spans, config.bridge_frames), config.min_frames)
         target, target_rotation = span_targets(spans, g_pos[:, ankle], g_rot[:, ankle], ankle_ground, up,
                                                config.plant_at)
         upper = jnp.linalg.norm(offsets[knee])
@@ -374,16 +493,33 @@ def _lock_one(rotations, root_positions, contacts, offsets, legs: tuple, parents
         room = jnp.linalg.norm(target - g_pos[:, ankle], axis=-1) <= config.release_speed * release_room(spans)
         kept = reachable_spans(spans, reachable & near & room)
         anchor = kept | keyframe
-        offset = jnp.where((kept & ~keyframe)[:, None], target - g_pos[:, ankle], 0.0)
-        turn = R.quat_mul(target_rotation, R.quat_conjugate(g_rot[:, ankle]))
-        turn = jnp.where((kept & ~keyframe)[:, None], turn, jnp.asarray([1.0, 0.0, 0.0, 0.0], turn.dtype))
-        offset, turn, weight, arc = blended_corrections(anchor, offset, turn, config.blend_frames,
-                                                        config.lift_power, up)
+        if config.ease_to_plant:
+            offset, turn, weight, arc = eased_plants(anchor, keyframe & ~kept, target, target_rotation,
+                                                     g_pos[:, ankle], g_rot[:, ankle], config.blend_frames,
+                                                     config.lift_power, up)
+        else:
+            offset = jnp.where((kept & ~keyframe)[:, None], target - g_pos[:, ankle], 0.0)
+            turn = R.quat_mul(target_rotation, R.quat_conjugate(g_rot[:, ankle]))
+            turn = jnp.where((kept & ~keyframe)[:, None], turn, jnp.asarray([1.0, 0.0, 0.0, 0.0], turn.dtype))
+            offset, turn, weight, arc = blended_corrections(anchor, offset, turn, config.blend_frames,
+                                                            config.lift_power, up)
         offset = offset.at[:, up].add(jnp.minimum(config.step_lift * arc, config.max_step_height))
-        active = (weight > 0) & ~keyframe & (jnp.any(offset != 0, axis=-1) | (turn[:, 0] < 1.0))
+        if config.clearance > 0:
+            new_ankle = g_pos[:, ankle] + offset
+            new_toe = new_ankle + R.quat_rotate(turn, g_pos[:, toe] - g_pos[:, ankle])
+            low = jnp.minimum(new_ankle[:, up] - ankle_ground, new_toe[:, up] - toe_ground)
+            moving = jnp.maximum(_horizontal_speed(new_ankle, up), _horizontal_speed(new_toe, up))
+            lift = clearance_lift(low, moving, jnp.clip(contact / config.contact_full, 0.0, 1.0), anchor,
+                                  config.clearance, config.clearance_speed, config.clearance_frames)
+            offset = offset.at[:, up].add(lift)
+        active = ~keyframe & (jnp.any(offset != 0, axis=-1) | (turn[:, 0] < 1.0))
+        if not config.ease_to_plant and config.clearance <= 0:
+            active = active & (weight > 0)
 
         hip_turn, knee_turn, _, _, _ = two_bone_ik(g_pos[:, hip], g_pos[:, knee], g_pos[:, ankle],
-                                                   g_pos[:, ankle] + offset, upper, lower, config.soft_reach)
+                                                   g_pos[:, ankle] + offset, upper, lower, config.soft_reach,
+                                                   config.pole_hint * (g_pos[:, toe] - g_pos[:, ankle])
+                                                   if config.pole_hint > 0 else None)
         hip_global = R.quat_mul(hip_turn, g_rot[:, hip])
         knee_global = R.quat_mul(knee_turn, R.quat_mul(hip_turn, g_rot[:, knee]))
         foot_global = R.quat_mul(turn, g_rot[:, ankle])
