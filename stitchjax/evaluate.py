@@ -195,7 +195,7 @@ def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correla
     the model's ``model.noise_correlation``);
     noise_ramp_steps: its ramp from each keyframe (``rollout.noise_ramp``; 0: none, the paper's).
     foot_lock: plant the feet after sampling (:mod:`stitchjax.footlock`; True or a ``FootLockConfig``); the
-    method's ``foot_lock_counts`` dict then adds up its planted, let-go and changed leg-frames.
+    method's ``foot_lock_counts`` dict then adds up its planted, let-go, changed and lifted leg-frames.
     """
     if not isinstance(model, Model):
         model = load_model(model)

@@ -5,33 +5,39 @@ A post-process over generated transitions (start keyframe, L generated frames, t
 1. **Stance score** per leg and frame (:func:`stance_score`): the model's predicted contact times how close
    the generated foot is to the ground and how slowly it moves (the model's contact outputs alone hardly
    separate stance from swing, its feet rarely stop).
-2. **Spans** (:func:`hysteresis`, :func:`drop_short_spans`): the score switches a span on above ``enter``
-   and off below ``leave``; spans shorter than ``min_frames`` are dropped, so a flicker makes none.
+2. **Spans** (:func:`hysteresis`, :func:`bridge_gaps`, :func:`drop_short_spans`): the score switches a
+   span on above ``enter`` and off below ``leave``; gaps of up to ``bridge_frames`` frames between spans are
+   filled and spans shorter than ``min_frames`` are dropped, so a flicker neither ends a span nor makes one.
 3. **Plant** (:func:`span_targets`): each span holds the foot (ankle position and foot orientation, so the
-   toe too) at one place: the foot at the span's first frame, or at the keyframe the span touches (a span
-   touching both keyframes goes from the one to the other). A plant is never below the ground level of
-   the keyframes' feet (the lowest ankle of both keyframes).
+   toe too) at one place: by default the generated foot's mean place over the span (``plant_at``), or the
+   keyframe's foot where the span touches a keyframe (a span touching both goes from the one to the other).
+   A plant is never below the ground level of the keyframes' feet (the lowest ankle of both keyframes).
 4. **Out of reach** (:func:`reachable_spans`): from the first frame where the planted ankle is farther from
    the hip than the leg is long, the foot is let go for the rest of its span (counted as let-go frames).
-   A span also ends where the generated foot has drifted ``leash`` cm from its plant, or where its
+   A span's frames where the generated foot is more than ``leash`` cm from its plant, or where the
    correction could no longer be eased out at ``release_speed`` cm/frame before the keyframe it is not
-   planted at (:func:`release_room`).
-5. **Blend** (:func:`blended_corrections`): the correction (ankle offset and foot turn) is eased out after
-   each span and in before the next one over up to ``blend_frames`` frames (smoothstep), and is zero at
-   both keyframes. A foot eased across is lifted on an arc (``step_lift`` of the distance, at most
-   ``max_step_height``): it steps to where the generated foot is instead of sliding there.
-6. **Leg solve** (:func:`two_bone_ik`): hip, knee and ankle turned so the ankle reaches its target; bones keep
+   planted at (:func:`release_room`), are not held: the foot is eased to and from the plant there.
+5. **Blend** (:func:`eased_plants`): over up to ``blend_frames`` frames after a span (and before the next)
+   the foot is eased (smoothstep) from its plant to the generated foot, so it leaves a plant and lands on
+   one at rest; both keyframes take no correction. A foot eased across is lifted on a small arc
+   (``step_lift`` of the distance, at most ``max_step_height``).
+6. **Clearance** (:func:`clearance_lift`): outside plants, a foot that still moves (``clearance_speed``)
+   within ``clearance`` cm of the ground where the model predicts contact is lifted to that height, eased
+   in and out: it steps instead of skating. The same rule as the foot-slide metric's (a foot low enough to
+   count as on the ground must not move) decides both the plants and the lifts.
+7. **Leg solve** (:func:`two_bone_ik`): hip, knee and ankle turned so the ankle reaches its target; bones keep
    their lengths exactly (only rotations change), the knee stays in the plane of the generated pose (pole
-   vector), and the reach is softened near full extension (``soft_reach``), so a leg is straightened, never
-   stretched, and never snaps straight.
+   vector, biased over the toes by ``pole_hint`` so a straight leg bends the right way), and the reach is
+   softened near full extension (``soft_reach``), so a leg is straightened, never stretched, and never
+   snaps straight.
 
-Frames that no span and no blend touches, both keyframes among them, are returned bit for bit as given.
+Frames that no span, blend or lift touches, both keyframes among them, are returned bit for bit as given.
 The root, the upper body and every joint's offset are unchanged; only the hip, knee and ankle rotations of
 each leg move. Positions in the data's units (LAFAN1: cm; the thresholds are in cm and cm/frame), +Y up by
 default (``FootLockConfig.up_axis``).
 
     out = lock_feet(rotations, root_positions, contacts, skeleton)     # any leading batch shape, jit-able
-    out["rotations"], out["root_positions"], out["let_go"], out["planted"]
+    out["rotations"], out["root_positions"], out["let_go"], out["planted"], out["lifted"]
 """
 from __future__ import annotations
 
@@ -64,9 +70,10 @@ class FootLockConfig:
     min_frames: spans shorter than this are dropped.
     blend_frames: frames over which a correction is eased out after a span (and in before one).
     soft_reach: fraction of the leg's length from which the IK reach is softened (< 1).
-    leash: a span ends where the generated ankle has moved this far (cm, horizontally) from its plant, so
-      that no release has to make up more than this.
-    plant_at: where along a span its plant is taken, when it touches no keyframe (0: its first frame).
+    leash: span frames where the generated ankle is this far (cm, horizontally) from the plant are not
+      held, so that no release has to make up more than this.
+    plant_at: where along a span its plant is taken, when it touches no keyframe (0: its first frame; < 0:
+      the generated foot's mean position and orientation over the span, the smallest correction).
     release_speed: a span ends where its correction could not be eased out before the keyframe it is not
       planted at at this many cm per frame (so no correction is squeezed into the last frames).
     hold_while_low: a span, once on, lasts while the score without its speed factor stays >= leave (the
@@ -97,7 +104,7 @@ class FootLockConfig:
     blend_frames: int = 8
     soft_reach: float = 0.97
     leash: float = 25.0
-    plant_at: float = 0.0
+    plant_at: float = -1.0
     release_speed: float = 2.0
     hold_while_low: bool = False
     lift_power: float = 3.0
@@ -105,7 +112,7 @@ class FootLockConfig:
     max_step_height: float = 3.0
     bridge_frames: int = 2
     ease_to_plant: bool = True
-    clearance: float = 4.0
+    clearance: float = 5.0
     clearance_speed: float = 2.0
     clearance_frames: int = 2
     pole_hint: float = 0.3
@@ -201,7 +208,7 @@ def span_targets(mask, ankle, foot_rotation, floor, up_axis: int = 1, plant_at: 
     the last frame (the target keyframe) when it touches it; a span over both keyframes goes linearly from
     the start keyframe's foot to the target keyframe's. Outside spans the targets are the generated foot.
     plant_at: where along a span that touches no keyframe its plant is taken (0: its first frame, 0.5: its
-    middle frame)."""
+    middle frame, < 0: the generated foot's mean position and orientation over the span)."""
     n = mask.shape[0]
     t = jnp.arange(n)
     ids = _span_ids(mask)
@@ -210,11 +217,23 @@ def span_targets(mask, ankle, foot_rotation, floor, up_axis: int = 1, plant_at: 
     at_end = mask & (last == n - 1)
     at_both = at_end & (first == 0)
     u = (t / max(n - 1, 1))[:, None]
-    first = jnp.where(first == 0, 0, first + jnp.round(plant_at * (last - first)).astype(first.dtype))
-    position = jnp.where(at_end[:, None], ankle[-1], ankle[first])
+    start = first
+    first = jnp.where(first == 0, 0, first + jnp.round(max(plant_at, 0.0) * (last - first)).astype(first.dtype))
+    position = ankle[first]
+    if plant_at < 0:  # the generated foot's mean place and orientation over the span
+        count = jnp.maximum(jax.ops.segment_sum(mask.astype(ankle.dtype), ids, num_segments=n + 1), 1.0)
+        mean = jax.ops.segment_sum(jnp.where(mask[:, None], ankle, 0.0), ids, num_segments=n + 1) / count[:, None]
+        aligned = _aligned(foot_rotation, foot_rotation[start])
+        q_mean = jax.ops.segment_sum(jnp.where(mask[:, None], aligned, 0.0), ids, num_segments=n + 1)
+        at_start = start == 0
+        position = jnp.where(at_start[:, None], ankle[0], mean[ids])
+        foot_rotation_plant = jnp.where(at_start[:, None], foot_rotation[0], R.quat_normalize(q_mean[ids]))
+    else:
+        foot_rotation_plant = foot_rotation[first]
+    position = jnp.where(at_end[:, None], ankle[-1], position)
     position = jnp.where(at_both[:, None], (1.0 - u) * ankle[0] + u * ankle[-1], position)
     position = position.at[:, up_axis].max(floor)
-    rotation = jnp.where(at_end[:, None], foot_rotation[-1], foot_rotation[first])
+    rotation = jnp.where(at_end[:, None], foot_rotation[-1], foot_rotation_plant)
     both = R.quat_normalize((1.0 - u) * foot_rotation[0] + u * _aligned(foot_rotation[-1], foot_rotation[0]))
     rotation = jnp.where(at_both[:, None], both, rotation)
     position = jnp.where(mask[:, None], position, ankle)
@@ -474,7 +493,7 @@ def _lock_one(rotations, root_positions, contacts, offsets, legs: tuple, parents
     keyframe = jnp.zeros(num_frames, bool).at[0].set(True).at[-1].set(True)
 
     new_rotations = rotations
-    planted, let_go, touched = [], [], []
+    planted, let_go, touched, lifted = [], [], [], []
     for hip, knee, ankle, toe, c_ankle, c_toe in legs:
         height = jnp.minimum(heights[:, ankle] - ankle_ground, heights[:, toe] - toe_ground)
         speed = 0.5 * (_horizontal_speed(g_pos[:, ankle], up) + _horizontal_speed(g_pos[:, toe], up))
@@ -491,7 +510,7 @@ def _lock_one(rotations, root_positions, contacts, offsets, legs: tuple, parents
         away = (target - g_pos[:, ankle]).at[:, up].set(0.0)
         near = jnp.sum(away**2, axis=-1) <= config.leash**2
         room = jnp.linalg.norm(target - g_pos[:, ankle], axis=-1) <= config.release_speed * release_room(spans)
-        kept = reachable_spans(spans, reachable & near & room)
+        kept = reachable_spans(spans & near & room, reachable)
         anchor = kept | keyframe
         if config.ease_to_plant:
             offset, turn, weight, arc = eased_plants(anchor, keyframe & ~kept, target, target_rotation,
@@ -512,6 +531,8 @@ def _lock_one(rotations, root_positions, contacts, offsets, legs: tuple, parents
             lift = clearance_lift(low, moving, jnp.clip(contact / config.contact_full, 0.0, 1.0), anchor,
                                   config.clearance, config.clearance_speed, config.clearance_frames)
             offset = offset.at[:, up].add(lift)
+        else:
+            lift = jnp.zeros(num_frames, offset.dtype)
         active = ~keyframe & (jnp.any(offset != 0, axis=-1) | (turn[:, 0] < 1.0))
         if not config.ease_to_plant and config.clearance <= 0:
             active = active & (weight > 0)
@@ -533,8 +554,10 @@ def _lock_one(rotations, root_positions, contacts, offsets, legs: tuple, parents
         planted.append(kept & ~keyframe)
         let_go.append(spans & ~reachable_spans(spans, reachable))
         touched.append(active)
+        lifted.append(active & (lift > 0.01))
     return {"rotations": new_rotations, "root_positions": root_positions,
-            "planted": jnp.stack(planted, -1), "let_go": jnp.stack(let_go, -1), "changed": jnp.stack(touched, -1)}
+            "planted": jnp.stack(planted, -1), "let_go": jnp.stack(let_go, -1), "changed": jnp.stack(touched, -1),
+            "lifted": jnp.stack(lifted, -1)}
 
 
 @functools.partial(jax.jit, static_argnames=("skeleton", "feet", "config"))
@@ -549,7 +572,8 @@ def lock_feet(rotations, root_positions, contacts, skeleton: Skeleton, offsets=N
     in channel order (default: LAFAN1's names); config: :class:`FootLockConfig`.
     Returns {"rotations" (..., T, J, 4), "root_positions" (..., T, 3) (unchanged), "planted" (..., T, legs)
     frames held by a span, "let_go" (..., T, legs) span frames let go because out of reach, "changed"
-    (..., T, legs) frames whose leg moved}. Unchanged frames, keyframes among them, are the inputs exactly.
+    (..., T, legs) frames whose leg moved, "lifted" (..., T, legs) frames whose foot was lifted clear
+    (``clearance``) by more than 0.01 cm}. Unchanged frames, keyframes among them, are the inputs exactly.
     """
     legs = leg_chains(skeleton, feet)
     batch = rotations.shape[:-3]
@@ -569,7 +593,7 @@ def lock_transitions(rotations, positions, contacts, skeleton: Skeleton, feet=No
     (..., T, J, 3) (root position and bone offsets), contacts (..., T, C). Computed in float32; every leg
     joint rotation the pass does not change keeps its float64 input exactly.
     Returns (rotations (..., T, J, 4), positions (..., T, J, 3) (the input), stats {"planted", "let_go",
-    "changed": (..., T, legs) bool})."""
+    "changed", "lifted": (..., T, legs) bool})."""
     rotations = np.asarray(rotations, np.float64)
     positions = np.asarray(positions, np.float64)
     as32 = lambda x: jnp.asarray(x, jnp.float32)  # noqa: E731
@@ -582,5 +606,5 @@ def lock_transitions(rotations, positions, contacts, skeleton: Skeleton, feet=No
         mask = changed[..., k, None]
         for joint in (hip, knee, ankle):
             result[..., joint, :] = np.where(mask, new[..., joint, :], rotations[..., joint, :])
-    stats = {key: np.asarray(out[key]) for key in ("planted", "let_go", "changed")}
+    stats = {key: np.asarray(out[key]) for key in ("planted", "let_go", "changed", "lifted")}
     return result, positions, stats

@@ -220,7 +220,8 @@ def transitions_in_frame(model: Model, start_rotations, start_positions, start_c
     positions are the start keyframe's bone offsets.
     foot_lock: False, True (``footlock.DEFAULT_CONFIG``) or a ``footlock.FootLockConfig``: plant the feet
     with the predicted contacts (:func:`stitchjax.footlock.lock_feet`, in the input's frame, +Y up).
-    foot_lock_counts: a dict to which the pass adds "leg_frames", "planted", "let_go" and "changed" counts.
+    foot_lock_counts: a dict to which the pass adds "leg_frames", "planted", "let_go", "changed" and "lifted"
+      counts.
     """
     sr, sp = np.asarray(start_rotations, np.float64), np.asarray(start_positions, np.float64)
     tr, tp = np.asarray(target_rotations, np.float64), np.asarray(target_positions, np.float64)
@@ -258,7 +259,7 @@ def transitions_in_frame(model: Model, start_rotations, start_positions, start_c
 
 def _locked(model: Model, rotations, positions, contacts, config, counts: dict | None):
     """``footlock.lock_transitions`` of (B, S, T, ...) transitions on the model's skeleton; the counts of
-    planted, let-go and changed leg-frames (generated frames only) added to ``counts``."""
+    planted, let-go, changed and lifted leg-frames (generated frames only) added to ``counts``."""
     from stitchjax import footlock, skeleton as skeleton_lib
 
     config = footlock.DEFAULT_CONFIG if config is True else config
@@ -269,7 +270,7 @@ def _locked(model: Model, rotations, positions, contacts, config, counts: dict |
     if counts is not None:
         inner = stats["planted"][..., 1:-1, :]
         counts["leg_frames"] = counts.get("leg_frames", 0) + int(inner.size)
-        for key in ("planted", "let_go", "changed"):
+        for key in ("planted", "let_go", "changed", "lifted"):
             counts[key] = counts.get(key, 0) + int(stats[key][..., 1:-1, :].sum())
     return locked
 

@@ -164,3 +164,87 @@ def test_before_after_figure(tmp_path):
     assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
     with pytest.raises(ValueError, match="planted must be"):
         plots.foot_lock_before_after(before, after, stats["planted"][:5], FEET)
+
+
+def test_bridge_gaps_fills_short_gaps_between_spans_only():
+    mask = jnp.asarray([0, 1, 1, 0, 1, 1, 0, 0, 0, 1, 0], bool)
+    out = np.asarray(footlock.bridge_gaps(mask, 2)).astype(int).tolist()
+    assert out == [0, 1, 1, 1, 1, 1, 0, 0, 0, 1, 0]  # the 1-frame gap filled, the 3-frame gap and the ends not
+    assert np.array_equal(np.asarray(footlock.bridge_gaps(mask, 0)), np.asarray(mask))
+
+
+def test_plant_at_the_mean_of_the_span():
+    mask = jnp.asarray([0, 0, 1, 1, 1, 1, 0, 0], bool)
+    ankle = jnp.stack([jnp.arange(8.0), jnp.full(8, 5.0), jnp.zeros(8)], -1)
+    rotation = jnp.zeros((8, 4)).at[:, 0].set(1.0)
+    position, _ = footlock.span_targets(mask, ankle, rotation, floor=0.0, plant_at=-1.0)
+    np.testing.assert_allclose(np.asarray(position[2:6, 0]), 3.5)  # mean of frames 2-5
+    np.testing.assert_allclose(np.asarray(position[[0, 1, 6, 7], 0]), [0.0, 1.0, 6.0, 7.0])  # outside: the foot
+
+
+def test_eased_plants_leave_a_plant_at_rest_and_leave_keyframes_alone():
+    n = 16
+    anchor = jnp.zeros(n, bool).at[:6].set(True).at[-1].set(True)
+    free = jnp.zeros(n, bool).at[0].set(True).at[-1].set(True)  # keyframes plant nothing
+    ankle = jnp.stack([3.0 * jnp.arange(n), jnp.zeros(n), jnp.zeros(n)], -1)  # the generated foot skates on
+    target = jnp.where(anchor[:, None], jnp.asarray([3.0, 0.0, 0.0]), ankle)  # planted at frame 1's place
+    identity = jnp.zeros((n, 4)).at[:, 0].set(1.0)
+    offset, turn, weight, _ = footlock.eased_plants(anchor, free, target, identity, ankle, identity, blend_frames=6)
+    foot = np.asarray(ankle + offset)[:, 0]
+    assert np.abs(np.diff(foot[1:6])).max() < 1e-5  # held
+    assert abs(foot[6] - foot[5]) < 1.0  # the first frame after the plant moves little (the skate: 3 cm/frame)
+    assert np.all(np.diff(foot[5:]) >= -1e-5)  # then follows the generated foot, never back
+    np.testing.assert_allclose(np.asarray(offset[-1]), 0.0)  # the keyframe takes no correction
+    np.testing.assert_allclose(np.asarray(offset[13:]), 0.0, atol=1e-6)  # eased out within 6 frames + 1
+    assert float(weight[5]) == 1.0 and float(weight[-1]) == 0.0
+
+
+def test_clearance_lift_steps_a_moving_low_foot_and_needs_contact():
+    n = 20
+    anchor = jnp.zeros(n, bool).at[:4].set(True).at[-1].set(True)
+    height, speed = jnp.zeros(n), jnp.full(n, 5.0)
+    lift = np.asarray(footlock.clearance_lift(height, speed, jnp.ones(n), anchor, 4.0, 2.0, 2))
+    assert np.all(lift[np.asarray(anchor)] == 0.0)
+    np.testing.assert_allclose(lift[8:16], 4.0)  # lifted to the clearance away from the plants
+    assert np.abs(np.diff(lift)).max() <= 4.0 * 0.75  # eased in and out, no jump to full height
+    still = np.asarray(footlock.clearance_lift(height, jnp.full(n, 0.5), jnp.ones(n), anchor, 4.0, 2.0, 2))
+    assert not still.any()  # a foot at rest is not lifted
+    none = np.asarray(footlock.clearance_lift(height, speed, jnp.zeros(n), anchor, 4.0, 2.0, 2))
+    assert not none.any()  # no predicted contact, no lift
+
+
+def test_pole_hint_bends_a_straight_leg_over_the_toes():
+    hip, knee, ankle = jnp.asarray([0.0, 80.0, 0.0]), jnp.asarray([0.0, 40.0, 0.0]), jnp.asarray([0.0, 0.0, 0.0])
+    target = jnp.asarray([0.0, 10.0, 0.0])  # 70 cm from the hip: the knee must bend, the straight leg has no plane
+    for sign in (1.0, -1.0):
+        _, _, new_knee, new_ankle, _ = footlock.two_bone_ik(hip, knee, ankle, target, jnp.float32(40.0),
+                                                            jnp.float32(40.0), hint=jnp.asarray([0.0, 0.0, 3.0 * sign]))
+        assert np.sign(float(new_knee[2])) == sign and float(new_knee[2]) * sign > 10.0
+        np.testing.assert_allclose(np.asarray(new_ankle), np.asarray(target), atol=1e-3)
+
+
+def test_skating_foot_is_planted_or_lifted():
+    """A foot skating on the ground at 2.5 cm/frame with contact predicted: after the pass, the frames
+    where a foot joint is within 2.5 cm of the ground (the foot-slide metric's) move far less."""
+    frames = 40
+    rotations, root = _pose(frames, step=2.5)
+    contacts = np.ones((frames, 2))
+    contacts[0] = contacts[-1] = 0.0  # keyframes not in contact: the foot is planted between them
+    local = np.broadcast_to(OFFSETS, rotations.shape[:-1] + (3,)).copy()
+    local[:, 0] = root
+    locked, _, stats = footlock.lock_transitions(rotations, local, contacts, SKELETON, FEET)
+
+    def slide(g):
+        feet = g[1:, [3, 4]]
+        ground = min(g[0, [3, 4], 1].min(), g[-1, [3, 4], 1].min())
+        weight = np.clip(2.0 - 2.0 ** ((feet[:-1, :, 1] - ground) / 2.5), 0.0, 1.0)
+        step = np.linalg.norm(np.diff(feet[..., [0, 2]], axis=0), axis=-1)
+        return (weight * step).sum() / max((weight > 0).sum(), 1)
+
+    before, after = slide(_global_positions(rotations, root)), slide(_global_positions(locked, root))
+    assert before > 2.0 and after < 0.25 * before
+    assert stats["planted"].any() and stats["lifted"].any()
+    assert np.array_equal(locked[[0, -1]], rotations[[0, -1]])
+    g = _global_positions(locked, root)
+    np.testing.assert_allclose(_bone_lengths(g), np.broadcast_to(np.linalg.norm(OFFSETS[1:], axis=-1), (frames, 4)),
+                               atol=1e-3)

@@ -8,7 +8,9 @@ them; test: the subject5 test windows. Per length: foot slide (cm/frame), ADE, S
 bin/evaluate model (ground = the window's lowest ground-truth foot height), the largest per-frame joint
 displacement (cm) over the keyframes and generated frames against the ground truth's over whole windows, the
 largest bone-length change (cm), the largest knee-angle change per frame (degrees; the ground truth's beside
-it), the shares of planted and let-go generated leg-frames, and the pass's time against sampling's.
+it), the shares of planted, let-go and lifted (``clearance``) generated leg-frames, and the pass's time
+against sampling's. --checkpoint: a training run or an exported model folder (the release model:
+stitchjax/models/lafan1_cpu_mixed).
 """
 import argparse
 import dataclasses
@@ -128,7 +130,7 @@ def main(argv=None):
         inner = {k: v[:, :, 1:-1] for k, v in stats.items()}
         entry["model+footlock"].update(
             planted_share=float(inner["planted"].mean()), let_go_share=float(inner["let_go"].mean()),
-            changed_share=float(inner["changed"].mean()))
+            changed_share=float(inner["changed"].mean()), lifted_share=float(inner["lifted"].mean()))
         entry["ground_truth"] = {"foot_slide": float(np.divide(*[x.sum() for x in metrics.foot_slide_parts(
             gt_p_all[:, start + 1:target + 1], ground, FEET)]))}
         entry["time_s"] = {"sampling": sampling_s, "foot_lock": lock_s, "transitions": int(r.shape[0] * r.shape[1])}
@@ -136,6 +138,7 @@ def main(argv=None):
         a, b = entry["model"], entry["model+footlock"]
         print(f"L={length}: " + ", ".join(f"{k} {a[k]:.4g} -> {b[k]:.4g}" for k in a)
               + f", let go {b['let_go_share']:.3%}, planted {b['planted_share']:.1%}, "
+                f"lifted {b['lifted_share']:.1%}, "
                 f"sampling {sampling_s:.1f} s, pass {lock_s:.2f} s", flush=True)
     result["command"] = "python " + " ".join(sys.argv)
     result["commit"] = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
