@@ -74,8 +74,9 @@ class FootLockConfig:
       held, so that no release has to make up more than this.
     plant_at: where along a span its plant is taken, when it touches no keyframe (0: its first frame; < 0:
       the generated foot's mean position and orientation over the span, the smallest correction).
-    release_speed: a span ends where its correction could not be eased out before the keyframe it is not
-      planted at at this many cm per frame (so no correction is squeezed into the last frames).
+    release_speed: span frames whose correction could not be eased in or out next to a keyframe the span is
+      not planted at, at this many cm per frame, are not held (so no correction is squeezed into the
+      frames next to a keyframe).
     hold_while_low: a span, once on, lasts while the score without its speed factor stays >= leave (the
       generated foot's speed does not matter while it is held; it ends when the foot lifts).
     lift_power: the vertical part of a correction is eased with the blend weight to this power, so a foot
@@ -247,15 +248,16 @@ def _aligned(q, reference):
 
 
 def release_room(mask):
-    """(T,) frames a span frame has for easing its correction out before the keyframe it is not planted at:
-    to the last frame for a span planted at its own frame, to the first for one planted at the target
-    keyframe; unlimited (T) for a span over both keyframes and outside spans."""
+    """(T,) frames a span frame has for easing its correction in or out next to a keyframe it is not planted
+    at: to the nearer keyframe for a span touching neither (its plant is its own), to the last frame for one
+    planted at the start keyframe, to the first for one planted at the target keyframe; unlimited (T) for a
+    span over both keyframes and outside spans."""
     n = mask.shape[0]
     t = jnp.arange(n)
     ids = _span_ids(mask)
     first = jax.ops.segment_min(t, ids, num_segments=n + 1)[ids]
     last = jax.ops.segment_max(t, ids, num_segments=n + 1)[ids]
-    room = jnp.where(last == n - 1, t, n - 1 - t)
+    room = jnp.where(last == n - 1, t, jnp.where(first == 0, n - 1 - t, jnp.minimum(t, n - 1 - t)))
     return jnp.where(mask & ~((first == 0) & (last == n - 1)), room, n)
 
 

@@ -3,8 +3,8 @@
     python results/2026-12-04_footlock/measure.py --windows train --count 48 --json tune.json   # tuning
     python results/2026-12-04_footlock/measure.py --windows test --json test.json               # 376 windows
 
---windows train: windows of 65 frames every 40 of six training takes (subjects 1-4), evenly spaced --count of
-them; test: the subject5 test windows. Per length: foot slide (cm/frame), ADE, SLDE (m), NPSS, APD (m) as in
+--windows train: windows of 65 frames every 40 of training takes (subjects 1-4; --takes, default six of them),
+evenly spaced --count of them; test: the subject5 test windows. Per length: foot slide (cm/frame), ADE, SLDE (m), NPSS, APD (m) as in
 bin/evaluate model (ground = the window's lowest ground-truth foot height), the largest per-frame joint
 displacement (cm) over the keyframes and generated frames against the ground truth's over whole windows, the
 largest bone-length change (cm), the largest knee-angle change per frame (degrees; the ground truth's beside
@@ -68,6 +68,8 @@ def main(argv=None):
     parser.add_argument("--data", default="../shared/data/lafan1")
     parser.add_argument("--checkpoint", default="results/lafan1_cpu/from_scratch_mixed/models/pkv128")
     parser.add_argument("--windows", choices=("train", "test"), default="train")
+    parser.add_argument("--takes", default=",".join(TRAIN_TAKES),
+                        help="with --windows train: the training takes (comma-separated names, no .bvh)")
     parser.add_argument("--count", type=int, default=0, help="evenly spaced windows (0: all)")
     parser.add_argument("--lengths", default="10,15,30,45,50")
     parser.add_argument("--samples", type=int, default=10)
@@ -78,7 +80,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     started = time.time()
     if args.windows == "train":
-        windows = lafan1.build_windows([os.path.join(args.data, f"{t}.bvh") for t in TRAIN_TAKES], 65, 40, workers=1)
+        takes = args.takes.split(",")
+        if any(t.endswith("subject5") for t in takes):
+            parser.error("--takes: subject5 is the test set")
+        windows = lafan1.build_windows([os.path.join(args.data, f"{t}.bvh") for t in takes], 65, 40, workers=1)
     else:
         windows = lafan1.test_windows(args.data)
     if 0 < args.count < len(windows.rotations):
