@@ -8,6 +8,7 @@ without the pass is closest to the mean over those 64 (a typical window, not a c
 """
 import argparse
 import json
+import sys
 import time
 
 import numpy as np
@@ -54,7 +55,7 @@ def main():
     with open(args.out.rsplit(".", 1)[0] + ".json", "w") as f:
         json.dump({"window": k, "source": source, "foot_slide_before": float(slide[k]),
                    "foot_slide_after": float(w_after.sum() / c_after.sum()),
-                   "command": "python results/2026-12-04_footlock/figure.py --out " + args.out,
+                   "command": "python " + " ".join(sys.argv),
                    "wall_s": time.time() - started}, f, indent=1)
 
 
