@@ -205,9 +205,10 @@ def span_targets(mask, ankle, foot_rotation, floor, up_axis: int = 1, plant_at: 
     """Where each span plants the foot: (target ankle positions (T, 3), target foot rotations (T, 4)).
 
     mask: (T,) bool spans; ankle: (T, 3) the generated ankle; foot_rotation: (T, 4) its global rotation;
-    floor: the lowest height a planted ankle may have (the keyframes' ground level). A span plants at its first frame, or at
-    the last frame (the target keyframe) when it touches it; a span over both keyframes goes linearly from
-    the start keyframe's foot to the target keyframe's. Outside spans the targets are the generated foot.
+    floor: the lowest height a planted ankle may have (the keyframes' ground level). A span plants at its
+    first frame (see ``plant_at``), or at the last frame (the target keyframe) when it touches it; a span over
+    both keyframes goes linearly from the start keyframe's foot to the target keyframe's. Outside spans the
+    targets are the generated foot.
     plant_at: where along a span that touches no keyframe its plant is taken (0: its first frame, 0.5: its
     middle frame, < 0: the generated foot's mean position and orientation over the span)."""
     n = mask.shape[0]

@@ -4,13 +4,13 @@
     python results/2026-12-04_footlock/measure.py --windows test --json test.json               # 376 windows
 
 --windows train: windows of 65 frames every 40 of training takes (subjects 1-4; --takes, default six of them),
-evenly spaced --count of them; test: the subject5 test windows. Per length: foot slide (cm/frame), ADE, SLDE (m), NPSS, APD (m) as in
-bin/evaluate model (ground = the window's lowest ground-truth foot height), the largest per-frame joint
-displacement (cm) over the keyframes and generated frames against the ground truth's over whole windows, the
-largest bone-length change (cm), the largest knee-angle change per frame (degrees; the ground truth's beside
-it), the shares of planted, let-go and lifted (``clearance``) generated leg-frames, and the pass's time
-against sampling's. --checkpoint: a training run or an exported model folder (the release model:
-stitchjax/models/lafan1_cpu_mixed).
+evenly spaced --count of them; test: the subject5 test windows. Per length: foot slide (cm/frame), ADE,
+SLDE (m), NPSS, APD (m) as in bin/evaluate model (ground = the window's lowest ground-truth foot height), the
+largest per-frame joint displacement (cm) over the keyframes and generated frames against the ground truth's
+over whole windows, the largest bone-length change (cm), the largest knee-angle change per frame (degrees;
+the ground truth's beside it), the shares of planted, let-go and lifted (``clearance``) generated
+leg-frames, and the pass's time against sampling's. --checkpoint: a training run or an exported model
+folder (the release model: stitchjax/models/lafan1_cpu_mixed).
 """
 import argparse
 import dataclasses
