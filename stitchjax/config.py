@@ -1,9 +1,11 @@
 """Experiment configuration: frozen dataclasses holding every hyperparameter.
 
-``Config(data, model, loss, train, phase)``. Values from the paper (section 4.4) are marked
-``# paper``; every choice the paper leaves open carries a one-line ``# reason`` comment.
-Named experiments live in the repository's ``configs/NAME.py`` (each defines ``get_config()``);
-load them with :func:`load_config` and change fields with :func:`apply_overrides`::
+``Config(data, model, loss, train, phase)``. Each section lists the paper's fields first (``# paper``, section
+4.4 of Ren et al. 2023, each default the paper's value), then the choices the paper leaves open (each with a
+one-line ``# reason``), then the extensions (:data:`EXTENSIONS`): mechanisms the paper does not have, all off by
+default, so the defaults train the paper's model. Named experiments live in the repository's ``configs/NAME.py``
+(each defines ``get_config()``); load them with :func:`load_config` and change fields with
+:func:`apply_overrides`::
 
     config = apply_overrides(load_config("lafan1"), ["model.latent_dim=32", "train.batch_size=8"])
 
@@ -33,38 +35,35 @@ class ConfigError(ValueError):
 
 @dataclasses.dataclass(frozen=True)
 class DataConfig:
+    """Which motion files train, and how they are cut into windows and scaled."""
+    # --- the paper (section 4.1)
+    train_subjects: tuple = ("subject1", "subject2", "subject3", "subject4")  # paper (the RMIB LAFAN1 split)
+    window: int = 52  # paper: transitions of up to L = 50 generated frames, plus the 2 keyframes (docs/design.md §6)
+    offset: int = 20  # paper: window offset 20
+    fps: float = 30.0  # paper: LAFAN1's frame rate
+    # --- choices the paper leaves open
     dataset: str = "lafan1"  # reason: which loader builds the windows (stitchjax.datasets: lafan1, h36m, bvh_folder)
     data_dir: str = ""  # reason: empty = ../shared/data/<dataset> relative to the repo, or set it
-    train_subjects: tuple = ("subject1", "subject2", "subject3", "subject4")  # paper (RMIB split)
-    window: int = 52  # reason: the protocol scores transitions of up to L = 50 generated frames between two
-    # keyframes (docs/design.md §6), so training windows hold 50 + 2 frames (the paper's "50" without keyframes)
-    offset: int = 20  # paper: window offset 20
-    fps: float = 30.0  # LAFAN1 frame rate
     position_scale: float = 100.0  # reason: cm -> m so FK / stitch / offset inputs are O(1) on LAFAN1
     velocity_scale: float = 10.0  # reason: root speed in cm/frame / 10 is ~0.5 walking, ~2 sprinting
     parents: tuple = (-1, 0, 1, 2, 3, 0, 5, 6, 7, 0, 9, 10, 11, 12, 11, 14, 15, 16, 11, 18, 19, 20)
-    # reason: FK inside the losses needs static parents; LAFAN1's 22 joints (h36m configs set theirs)
+    # reason: FK inside the losses needs static parents; LAFAN1's 22 joints (the h36m and cmu configs set theirs)
     num_contacts: int = 4  # reason: contact channels in the state (LAFAN1 feet: LeftFoot/Toe, RightFoot/Toe)
-    feet: tuple = ()  # reason: dataset "bvh_folder": contact joints by name (left foot, left toe, right foot,
-    # right toe); () = inferred from common names (LeftFoot, LeftToeBase, ...), an error when not found
-    up_axis: str = ""  # reason: dataset "bvh_folder": the files' up axis ("+y", "+z", ...); "" = inferred
-    forward_axis: str = ""  # reason: dataset "bvh_folder": the root's local forward axis; "" = inferred
-    # from the left / right upper legs and the up direction
-    train_files: tuple = ()  # reason: dataset "bvh_folder": glob patterns of training files under --data;
-    # () = the files of train_subjects (folders or *_<subject> stems), else every file not in test_files
-    test_files: tuple = ()  # reason: dataset "bvh_folder": glob patterns of test files (kept out of training)
-    unit_scale: float = 0.0  # reason: dataset "bvh_folder": centimetres per file unit; 0 = inferred from
-    # the skeleton's height (cm or m), else set it (CMU: 5.6444)
-    validation_files: tuple = ()  # reason: training takes (file names without .bvh) held out whole as the
-    # validation split: they never train, train.eval_every and `bin/evaluate --split validation` score them;
-    # () = no split (validation falls back to the test windows). A test file here is refused
-    extra_train_dirs: tuple = ()  # reason: more folders of training takes on the same skeleton (another frame
-    # rate, an extra root bone above Hips: conformed on load, datasets.training_set); a file of a test,
-    # validation or main take is refused. Relative paths: to --data
-    random_starts: bool = False  # paper: windows start every data.offset frames. True: any frame can start a
-    # training window (drawn per batch, features.random_start_batch); its keyframes stay its first / last frame
-    mirror: bool = False  # paper: no mirroring. True: every training window also trains as its left/right mirror
-    # image (windows.mirror_arrays; joints and contacts swapped by their Left*/Right* names)
+    # --- dataset "bvh_folder" only (any folder of BVH files; stitchjax/bvh_folder.py)
+    feet: tuple = ()  # reason: contact joints by name (left foot, left toe, right foot, right toe); () = common names
+    up_axis: str = ""  # reason: the files' up axis ("+y", "+z", ...); "" = inferred
+    forward_axis: str = ""  # reason: the root's local forward axis; "" = inferred from the upper legs and the up axis
+    train_files: tuple = ()  # reason: glob patterns of training files under --data; () = the files of
+    # train_subjects (folders or *_<subject> stems), else every file not in test_files
+    test_files: tuple = ()  # reason: glob patterns of test files (kept out of training)
+    unit_scale: float = 0.0  # reason: centimetres per file unit; 0 = inferred from the skeleton's height (CMU: 5.6444)
+    # --- extensions (off by default; config.EXTENSIONS)
+    validation_files: tuple = ()  # takes (file names without .bvh) held out whole as the validation split, scored by
+    # train.eval_every and `bin/evaluate --split validation`; () = no split (validation uses the test windows)
+    extra_train_dirs: tuple = ()  # more folders of training takes on the same skeleton, conformed on load
+    # (datasets.training_set); relative paths are to --data; a test, validation or main take is refused
+    random_starts: bool = False  # True: a training window may start at any frame (features.random_start_batch)
+    mirror: bool = False  # True: every training window also trains as its left/right mirror (windows.mirror_arrays)
 
     @property
     def num_joints(self) -> int:
@@ -73,131 +72,93 @@ class DataConfig:
 
 @dataclasses.dataclass(frozen=True)
 class ModelConfig:
-    # Ablation switches (paper section 5.3); True everywhere = the full model.
+    """The two generators (encoders, LSTM, latent Gaussians, phase-gated experts) and the discriminators."""
+    # --- the paper (sections 3 and 4.4); the four switches are the ablations of section 5.3
     bidirectional: bool = True  # paper; False = forward generator only, targets the end keyframe
     latent_interpolation: bool = True  # paper; False = sample from the current-frame Gaussian only
     bidirectional_aligning: bool = True  # paper; False = each generator targets the given end keyframe
     phase_modulation: bool = True  # paper; False = plain MLP decoder (no gating, no phase input)
-    # Sizes the paper does not give.
+    num_experts: int = 4  # paper
+    gamma_schedule: str = "direction"  # paper: gamma rises from 0 at the generator's first frame to 1 at the
+    # frame it targets, n / (frames this direction makes); "transition" = n / (L + 1) for both directions
+    disc_short_window: int = 2  # paper (RMIB short discriminator: 2 frames)
+    disc_long_window: int = 10  # paper (RMIB long discriminator: 10 frames)
+    # --- choices the paper leaves open
     encoder_widths: tuple = (512, 512, 256)  # reason: 3 FC layers each (paper); RMIB-like 512/256 widths
     lstm_size: int = 512  # reason: one LSTM layer over the 3x256 concatenated embeddings (RMIB scale)
     latent_dim: int = 32  # reason: small latent keeps KL cheap; diversity comes from per-frame sampling
     decoder_widths: tuple = (512, 512)  # reason: MANN-style 3-layer experts (2 hidden layers of 512)
-    num_experts: int = 4  # paper
     gating_widths: tuple = (64, 64)  # reason: MANN gating network is a small 3-layer MLP on the phase
     activation: str = "elu"  # reason: MANN experts and gating use ELU
-    posterior: str = "next_frame"  # reason: the paper does not say where z's information comes from
-    # (docs/design.md §5.5). "next_frame": training draws z from q(z | LSTM state, ground-truth next frame) and the
-    # KL term is KL(q || p) with p the latent-interpolation prior; inference draws z from p. "none": z is
-    # drawn from p at training too (no information in z: measured ~1 cm between samples, results/README.md)
-    z_every_layer: bool = True  # reason: z is concatenated to the input of every decoder layer, as in the
-    # MANN/MVAE experts, so the decoder cannot wash it out after the first layer
-    decoder_uses_lstm: bool = False  # reason: True also feeds the LSTM output to the decoder, a
-    # deterministic path around z; with it the posterior collapses (measured KL(q||p) 0.02, docs/design.md §5.5)
-    gamma_schedule: str = "direction"  # reason: paper: gamma rises from 0 at the generator's first frame
-    # to 1 at the frame it targets, so n / (frames this direction makes); "transition" = n / (L + 1) for
-    # both directions (reaches only ~0.57 at L = 48 with bidirectional stitching)
-    keyframe_velocity: str = "zero"  # reason: the paper gives keyframes as poses, so their root velocity
-    # input is 0; "mean" gives both keyframes the transition's mean root velocity, (target root - start
-    # root) / (L + 1), which the two poses and L determine (results/README.md: measured against "zero")
-    time_to_target_input: bool = True  # reason: offset encoder gets frames-to-target / fps; without it
-    # the generator cannot know when it must arrive (RMIB uses a time-to-arrival signal too)
+    posterior: str = "next_frame"  # reason: the paper does not say where z's information comes from (docs/design.md
+    # §5.5): "next_frame" draws z from q(z | h, ground-truth next frame) at training with KL(q || p) and from the
+    # prior p at inference; "none" draws z from p at training too (Eq. 5 as written; z then carries nothing)
+    z_every_layer: bool = True  # reason: z enters every decoder layer (MANN/MVAE experts), so it is not washed out
+    decoder_uses_lstm: bool = False  # reason: True adds a deterministic path around z, and the posterior collapses
+    time_to_target_input: bool = True  # reason: the generator must know when it arrives (RMIB's time-to-arrival)
     stitch_buffer: int = 4  # reason: K (paper leaves it open); 2K = 8 overlap frames, clipped to L//2
-    variance_blend: str = "std"  # reason: "std" blends mu and sigma linearly (the W2 geodesic between
-    # diagonal Gaussians: sigma stays 1 when both are 1); "var" = law of (1-g)z + g z_t, z independent
-    noise_correlation: float = 0.0  # paper: 0, independent latent noise per frame. rho in [0, 1] draws each
-    # direction's noise as AR(1) over frames, every frame still standard normal (rollout.correlated_noise), at
-    # training and as the sampling default at inference: with independent noise the prior samples' choices
-    # average out over the frames, and the samples stay close together (results/README.md measures it)
-    posterior_horizon: int = 1  # reason: 1 = q(z | h, ground-truth next frame). k > 1 shows q the frame k steps
-    # ahead (clipped at the keyframe the direction heads for) with the root's mean velocity over those k steps
-    # in the velocity slot, so z can carry where the motion goes, not only the next frame's residual (measured:
-    # k = 16 as a 2400-step fine-tune of n64_more spreads the samples no further, APD -1 to -4 %; results/README.md)
-    contact_input_gradient: bool = False  # reason: True lets every later loss term's gradient flow into the
-    # contact outputs through their use as the next step's input, and they serve as hidden state instead of
-    # contacts: measured on quickstart (800 steps) contact term 1.74 with True, 1.40 with False (results/)
+    variance_blend: str = "std"  # reason: "std" blends mu and sigma linearly (the W2 geodesic between diagonal
+    # Gaussians: sigma stays 1 when both are 1); "var" = law of (1-g)z + g z_t, z independent
+    contact_input_gradient: bool = False  # reason: True lets later terms' gradients reach the contact outputs
+    # through the next step's input, and the contacts turn into hidden state instead of contacts
     stop_phase_gradient: bool = True  # reason: the phase network is frozen and only conditions gating
     disc_widths: tuple = (512, 256)  # reason: RMIB discriminators: temporal conv then 2 dense layers
-    disc_short_window: int = 2  # paper/RMIB short discriminator: 2 frames
-    disc_long_window: int = 10  # paper/RMIB long discriminator: 10 frames
-    disc_features: str = "positions+velocity"  # reason: FK positions relative to the root (J-1)*3,
-    # scaled, plus the scaled root velocity 3: pose and trajectory, invariant to where the clip sits
-    matmul_dtype: str = "float32"  # paper precision; "bfloat16" = generator matmuls on bfloat16 operands
-    # with float32 accumulation (parameters, LSTM state, losses, optimiser stay float32): faster where the
-    # hardware has bfloat16 units (AMX CPUs: train step ~1.5x); checkpoints work with either
+    disc_features: str = "positions+velocity"  # reason: FK positions relative to the root (J-1)*3 and the root
+    # velocity 3, scaled: pose and trajectory, invariant to where the clip sits
+    matmul_dtype: str = "float32"  # reason: full precision; "bfloat16" = generator matmuls on bfloat16 operands with
+    # float32 accumulation (faster where the hardware has bfloat16 units); checkpoints work with either
+    # --- extensions (off by default; config.EXTENSIONS)
+    keyframe_velocity: str = "zero"  # "zero": keyframes are poses, root velocity input 0 (the paper); "mean": both get
+    # the transition's mean root velocity, (target root - start root) / (L + 1)
+    noise_correlation: float = 0.0  # 0: independent latent noise per frame (the paper); rho in [0, 1]: AR(1) noise
+    # over frames, each frame still standard normal (rollout.correlated_noise), at training and as sampling default
+    posterior_horizon: int = 1  # 1: q(z | h, ground-truth next frame); k > 1: q sees the frame k steps ahead
+    # (clipped at the keyframe it heads for) with the root's mean velocity over those k steps
 
 
 @dataclasses.dataclass(frozen=True)
 class LossConfig:
+    """Weights of the terms of Eq. 9 and of the extra terms (all off by default)."""
+    # --- the paper (Eq. 9, section 4.4)
     beta_rotation: float = 1.0  # paper beta1
     beta_velocity: float = 1.0  # paper beta2
     beta_contact: float = 0.1  # paper beta3
     kl_weight: float = 1.0  # paper alpha1 (with model.posterior: the weight of KL(q || p))
-    kl_warmup_steps: int = 0  # reason: > 0 ramps the KL weight linearly from 0 over this many steps, so the
-    # decoder learns to use z before the KL term pulls q towards p
-    free_bits: float = 0.0  # reason: nats per frame (summed over latent dims): KL(q || p) below this costs
-    # nothing, so the posterior keeps at least this much information (Kingma et al. 2016)
-    prior_kl_weight: float = 0.0  # reason: the paper's KL(p || N(0, I)) as an extra term on the prior when
-    # model.posterior is used (0 = off); with posterior "none" kl_weight already weights exactly that term.
-    # Measured as fine-tunes of n64_more (results/README.md): without it the prior drifts ~100 nats per frame
-    # from N(0, I) and its samples spread less than "none"'s; 0.02 (with the foot-skate weight at 256) spreads
-    # them 55-71 % wider than the like-for-like "none", still below interpolation; 0.1 puts SLDE above it
-    prior_rollout: bool = False  # reason: True also rolls out every batch with z drawn from the prior and
-    # takes the adversarial and stitching terms on that rollout (the posterior rollout alone never sees prior
-    # samples); measured on lafan1_cpu: 1.6x the step time, and the prior samples, held only by those two
-    # terms, stitch but degenerate (ADE 0.57 m against 0.29 m without it at L = 50; results/README.md)
-    prior_sample_fraction: float = 0.0  # reason: not in the paper (0 = off): this fraction of each batch's
-    # windows is rolled out with z from the prior p, as at inference, instead of from q, and every term scores
-    # them (q is still trained by the KL term); the decoder then sees prior samples at training, at no extra
-    # cost (one rollout). Measured on lafan1_cpu (1500-step fine-tunes, results/README.md): 0.5 brings the
-    # samples' ADE at L = 50 from 0.276 to 0.222 m and NPSS from 0.535 to 0.433, mid spread 31.5 -> 11.5 cm
-    prior_sample_reconstruction_weight: float = 1.0  # reason: not in the paper (1 = every window alike): the
-    # weight of the reconstruction terms (state and FK) on the windows that prior_sample_fraction draws from the
-    # prior, whose z knows nothing of the ground truth they are scored against; at 1 the decoder learns to
-    # make every prior sample the mean motion (the samples draw together), at 0 only the stitching,
-    # adversarial and foot-skate terms hold them (losses.reconstruction_weights)
-    prior_best_of: int = 1  # reason: not in the paper (1 = off): > 1 rolls each prior window (the last
-    # round(prior_sample_fraction x B) of the batch) out this many times with independent noise, and the state
-    # and FK terms score only the copy closest to the ground truth, so the prior is taught to cover the
-    # motions rather than to average them (best of many samples, Bhattacharyya et al. 2018); every copy keeps
-    # the stitching, adversarial and foot terms. A step rolls out B + (K - 1) x round(f x B) windows
-    # (losses.prior_copies, losses.best_of_weights)
-    foot_skate_weight: float = 0.0  # reason: not in the paper (0 = off): > 0 adds losses.foot_skate_loss, the
-    # movement of the feet on frames where the ground truth has them in contact (datasets with fixed feet)
-    foot_skate_contacts: str = "truth"  # reason: which feet the foot-skate term holds still. "truth": the
-    # ground truth's contact labels (all three components of the movement); "height": the generated foot
-    # itself when it is near the ground, weighted as the foot-slide metric weighs it (horizontal movement
-    # only): a sample drawn from the prior does not step where the ground truth steps. Measured on lafan1_cpu
-    # (results/README.md, 6000 steps each from one step-2000 state): "height" at weight 32 slides 7-13 % less
-    # than "truth" at 8, with 18 % less APD. "height_either": a movement is weighed by the foot's height at
-    # either end, so a foot in the air cannot jump onto the ground at no cost (at 512 "height" let the feet
-    # jump 8.4 cm into the first generated frame: results/README.md, from_decay512)
-    near_keyframe_weight: float = 1.0  # reason: not in the paper (1 = every frame alike): the weight of the
-    # state and FK terms on each direction's first near_keyframe_frames generated frames, the ones next to a
-    # keyframe (the last generated frame is what SLDE scores; the models trained here had a higher SLDE than
-    # interpolation at every length: results/README.md)
-    near_keyframe_frames: int = 1  # reason: how many frames near_keyframe_weight weighs, per direction
-    foot_velocity_weight: float = 0.0  # reason: not in the paper (0 = off): > 0 adds losses.foot_velocity_loss,
-    # the feet's movement per frame against the ground truth's. With the foot-skate term at 512 alone the feet
-    # jumped 8.4 cm in the first generated frame (ground truth 2.6; results/README.md, from_decay512). At 128 (a
-    # fine-tune of the prior-KL pair, results/README.md) the posterior's foot slide falls below "none"'s at every
-    # length and its ADE by up to 4 %, at -21 % APD; "none" slows down less in long transitions
     stitch_weight: float = 0.5  # paper alpha2 (0 = "no stitching loss" ablation)
     fk_weight: float = 0.5  # paper alpha3
     disc_weight: float = 0.1  # paper alpha4 (scales L_D in the discriminator update)
     gen_weight: float = 0.1  # paper alpha5 (scales L_G in the generator update)
+    # --- choices the paper leaves open
     reduction: str = "sum"  # reason: "sum" = ||.||_1 as written in the paper (sum over components,
     # mean over frames and batch); "mean" also averages over components
+    # --- extensions (off by default; config.EXTENSIONS)
+    kl_warmup_steps: int = 0  # > 0 ramps the KL weight linearly from 0 over this many steps
+    free_bits: float = 0.0  # nats per frame (summed over latent dims) of KL(q || p) that cost nothing (Kingma 2016)
+    prior_kl_weight: float = 0.0  # the paper's KL(p || N(0, I)) as an extra term on the prior with model.posterior
+    prior_rollout: bool = False  # True also rolls out every batch with z from the prior, for the adversarial and
+    # stitching terms only
+    prior_sample_fraction: float = 0.0  # this fraction of each batch's windows is rolled out with z from the prior
+    # p, as at inference, instead of from q, and every term scores them
+    prior_sample_reconstruction_weight: float = 1.0  # weight of the state and FK terms on those prior windows
+    # (1 = every window alike; losses.reconstruction_weights)
+    prior_best_of: int = 1  # > 1 rolls each prior window out this many times; the state and FK terms score only
+    # the copy nearest the ground truth (Bhattacharyya et al. 2018; losses.prior_copies, losses.best_of_weights)
+    foot_skate_weight: float = 0.0  # > 0 adds losses.foot_skate_loss: the feet's movement where they are in contact
+    foot_skate_contacts: str = "truth"  # which feet that term holds: "truth" = the ground truth's contact labels;
+    # "height" = the generated foot near the ground (the foot-slide metric's weight); "height_either" = near the
+    # ground at either end of the movement, so a foot cannot jump from the air onto the ground for free
+    near_keyframe_weight: float = 1.0  # weight of the state and FK terms on each direction's first
+    # near_keyframe_frames generated frames, the ones next to a keyframe (1 = every frame alike)
+    near_keyframe_frames: int = 1  # how many frames near_keyframe_weight weighs, per direction
+    foot_velocity_weight: float = 0.0  # > 0 adds losses.foot_velocity_loss: the feet's movement per frame
+    # against the ground truth's
 
 
 @dataclasses.dataclass(frozen=True)
 class TrainConfig:
+    """Optimiser, progressive transition-length schedule, checkpoints, validation and speed settings."""
+    # --- the paper (section 4.4)
     learning_rate: float = 1e-4  # paper
-    lr_decay_to: float = 1.0  # reason: not in the paper (1 = constant, the paper's): the learning rate falls
-    # linearly to this fraction of train.learning_rate from lr_decay_from_step to lr_decay_until_step, and
-    # stays there (schedule.learning_rate_factor; a train.* field, so a resumed run may add it)
-    lr_decay_from_step: int = 0  # reason: the step the decay starts at (with lr_decay_to < 1)
-    lr_decay_until_step: int = 0  # reason: the step it reaches lr_decay_to (must be after lr_decay_from_step)
     adam_b1: float = 0.5  # paper
     adam_b2: float = 0.9  # paper
     weight_decay: float = 1e-5  # paper
@@ -206,46 +167,46 @@ class TrainConfig:
     max_length: int = 50  # paper: progressive schedule up to 50; L counts generated frames (window - 2)
     length_step: int = 1  # paper: +1 ...
     epochs_per_length: int = 2  # paper: ... every 2 epochs
+    # --- choices the paper leaves open
     num_epochs: int = 100  # reason: (5 -> 50 takes 90 epochs) + some epochs at the full length
-    length_after_schedule: str = "max"  # paper: once the schedule reaches max_length, train at max_length.
-    # "uniform": each step then draws its length from [min_length, max_length] (schedule.transition_length),
-    # so a long run keeps training the shorter lengths the protocol tests (results/README.md measures it)
     seed: int = 0  # reason: reproducibility
+    # --- run control (stitchjax/train.py)
     log_every: int = 100  # reason: steps between metric logs
     checkpoint_every: int = 1  # reason: epochs between checkpoints
     max_to_keep: int = 3  # reason: orbax CheckpointManager retention
-    # --- run control (stitchjax/train.py) ---
     max_steps: int = 0  # reason: 0 = num_epochs epochs; > 0 caps the run (bin/train --max-steps)
     checkpoint_every_steps: int = 0  # reason: > 0 overrides checkpoint_every (epochs) with a step count
-    weight_gradients_after_scan: bool = True  # reason: same gradients, faster: each generator kernel's
-    # gradient is one matmul over all rollout steps after the scan, not one small matmul per step inside
-    # it (rollout.py docstring; benchmarks/README.md has the measured difference)
-    scan_remat: str = "none"  # reason: what the rollout's scan keeps for the backward pass (rollout.SCAN_REMAT):
-    # "none" = every intermediate (autodiff's default); "dots" = only matmul outputs, the elementwise work
-    # between them is recomputed in the backward pass (fewer stacked buffers); "nothing" = only the carry
-    # (the whole step recomputed); "taped" = the scan runs once undifferentiated, recording each matmul input
-    # and activation once, then replays that tape differentiated (stitchjax/tape.py; needs
-    # weight_gradients_after_scan and a tapeable model.activation); same gradients (benchmarks/README.md has
-    # the measured step times and bytes copied and stacked)
-    length_buckets: tuple = (12, 24, 50)  # reason: static scan lengths (window cut to bucket + 2 frames,
-    # one compile each) instead of one traced length masked in the full window. Measured on 2 loaded CPU
-    # cores, lafan1 model, batch 32 (benchmarks/train_step.py): window 50 = 6.26 s/step, 96 s compile;
-    # bucket 12 = 2.92 s/step, 65 s compile; bucket 24 = 4.16 s/step, 90 s compile: the 100-epoch
-    # schedule projects to 91.5 h bucketed vs 109.7 h masked (1.2x). () = masked (quickstart: compile
-    # dominates a short run)
     eval_every: int = 0  # reason: > 0 runs stitchjax.validation every this many steps (bin/train; 0 = off)
     eval_windows: int = 32  # reason: windows validated (of data.validation_files, else the test windows;
     # evenly spaced, the same every time): cheap
     eval_lengths: tuple = (30,)  # reason: the paper's mid length; (30, 50) adds the long one
     eval_samples: int = 4  # reason: enough for APD and a stable mean ADE on 32 windows
+    # --- speed (benchmarks/README.md)
+    weight_gradients_after_scan: bool = True  # reason: same gradients, faster: each generator kernel's gradient is
+    # one matmul over all rollout steps after the scan, not one small matmul per step inside it (rollout.py)
+    scan_remat: str = "none"  # reason: autodiff's default; what the rollout's scan keeps for the backward pass
+    # (rollout.SCAN_REMAT): "none" = every intermediate; "dots" = only matmul outputs; "nothing" = only the carry;
+    # "taped" = one undifferentiated scan records a tape that is replayed differentiated (stitchjax/tape.py; needs
+    # weight_gradients_after_scan and a tapeable model.activation); the same gradients with each
+    length_buckets: tuple = (12, 24, 50)  # reason: static scan lengths (window cut to bucket + 2 frames, one
+    # compile each) are faster than one traced length masked in the full window; () = masked (one compile)
+    # --- extensions (off by default; config.EXTENSIONS)
+    lr_decay_to: float = 1.0  # 1 = constant (the paper); < 1: the learning rate falls linearly to this fraction of
+    # learning_rate from lr_decay_from_step to lr_decay_until_step, and stays there (schedule.learning_rate_factor)
+    lr_decay_from_step: int = 0  # the step the decay starts at (with lr_decay_to < 1)
+    lr_decay_until_step: int = 0  # the step it reaches lr_decay_to (must be after lr_decay_from_step)
+    length_after_schedule: str = "max"  # "max": once the schedule reaches max_length, train there (the paper);
+    # "uniform": each step then draws its length from [min_length, max_length] (schedule.transition_length)
 
 
 @dataclasses.dataclass(frozen=True)
 class PhaseConfig:
-    # Every knob of stitchjax.phase (local-phase labels, the phase network and its pretraining).
+    """Every knob of stitchjax.phase: local-phase labels, the phase network and its pretraining (the paper uses
+    local motion phases but gives none of these settings)."""
+    # --- choices the paper leaves open
     window_seconds: float = 1.0  # reason: +-1 s fit window holds >= 1 period for F >= 0.5 Hz
-    min_frequency: float = 0.25  # docs/design.md §5.1: sinusoid fit F in 0.25..4 Hz (lowest of the grid, Hz)
-    max_frequency: float = 4.0  # docs/design.md §5.1 (highest of the grid, Hz)
+    min_frequency: float = 0.25  # reason: lowest of the sinusoid fit's frequency grid (Hz; docs/design.md §5.1)
+    max_frequency: float = 4.0  # reason: highest of the grid (Hz; docs/design.md §5.1)
     num_frequencies: int = 31  # reason: 0.125 Hz grid, finer than a 2 s window resolves
     smoothing_seconds: float = 0.05  # reason: removes 1-2 frame contact flicker
     ridge: float = 1.0  # reason: keeps near-degenerate low-frequency fits finite
@@ -336,29 +297,6 @@ def _parse_bool(text: str) -> bool:
     raise ValueError(f"{text!r} is not a boolean (use true/false)")
 
 
-# String fields that take one of a few values: checked when overridden, before any work starts.
-CHOICES = {
-    ("data", "dataset"): ("lafan1", "h36m", "bvh_folder"),  # stitchjax.datasets.REGISTRY has one entry each
-    ("model", "matmul_dtype"): ("float32", "bfloat16"),
-    ("model", "variance_blend"): ("std", "var"),
-    ("model", "posterior"): ("next_frame", "none"),
-    ("model", "gamma_schedule"): ("direction", "transition"),
-    ("model", "keyframe_velocity"): ("zero", "mean"),
-    ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
-    ("loss", "foot_skate_contacts"): ("truth", "height", "height_either"),
-    ("train", "scan_remat"): ("none", "dots", "nothing", "taped"),  # rollout.SCAN_REMAT has one policy each
-    ("train", "length_after_schedule"): ("max", "uniform"),  # schedule.transition_length
-}
-
-
-# Fields that act only through the posterior q(z | h, ground truth) or on the windows drawn from the prior
-# instead of from q: with model.posterior="none" every window's z is drawn from the prior, and they change nothing.
-POSTERIOR_ONLY_FIELDS = (
-    ("model", "posterior_horizon"), ("loss", "free_bits"), ("loss", "prior_kl_weight"), ("loss", "prior_rollout"),
-    ("loss", "prior_sample_fraction"), ("loss", "prior_sample_reconstruction_weight"), ("loss", "prior_best_of"),
-)
-
-
 def inert_fields(config: Config) -> tuple:
     """"section.field" of every field that is set away from its default but changes nothing under this
     config: the :data:`POSTERIOR_ONLY_FIELDS` when ``model.posterior`` is "none"."""
@@ -438,25 +376,7 @@ def apply_overrides(config: Config, overrides) -> Config:
 
 
 # ---------------------------------------------------------------------------------------------
-# Extensions: what the paper does not have
-
-
-# Every mechanism the paper does not have, as "section.field": the field's dataclass default is the paper's
-# behaviour (the mechanism off), so `configs/lafan1.py` (the defaults) trains the paper's objective, Eq. 9 with
-# its weights. A recipe turns an extension on by setting the field; `extensions_on` names those a config sets.
-EXTENSIONS = (
-    # data: the paper trains on every window of subjects 1-4, starting every 20 frames, unmirrored
-    "data.validation_files", "data.extra_train_dirs", "data.random_starts", "data.mirror",
-    # model
-    "model.keyframe_velocity", "model.noise_correlation", "model.posterior_horizon",
-    # loss: terms and weightings beyond Eq. 9
-    "loss.kl_warmup_steps", "loss.free_bits", "loss.prior_kl_weight", "loss.prior_rollout",
-    "loss.prior_sample_fraction", "loss.prior_sample_reconstruction_weight", "loss.prior_best_of",
-    "loss.foot_skate_weight", "loss.foot_skate_contacts", "loss.foot_velocity_weight",
-    "loss.near_keyframe_weight", "loss.near_keyframe_frames",
-    # train: the paper keeps the learning rate constant and trains at max_length once the schedule reaches it
-    "train.lr_decay_to", "train.lr_decay_from_step", "train.lr_decay_until_step", "train.length_after_schedule",
-)
+# Extensions a config turns on
 
 
 def _default(section: str, field: str):
@@ -481,16 +401,6 @@ def extensions_on(config: Config) -> tuple:
 def to_dict(config: Config) -> dict:
     """Plain JSON-ready dict (tuples become lists)."""
     return json.loads(json.dumps(dataclasses.asdict(config)))
-
-
-# Model fields a fine-tune (``--init-from``) may change: they change what the generators are fed, not what
-# their parameters are (the keyframes' velocity, the latent noise), so the parameters keep their meaning and the
-# fine-tune adapts them.
-FINE_TUNABLE_MODEL_FIELDS = ("keyframe_velocity", "noise_correlation", "posterior_horizon")
-
-
-# Fields that were removed (read nowhere); ignored when a saved config has them.
-RETIRED_FIELDS = {("train", "length_counts_keyframes"), ("train", "output_dir")}
 
 
 def from_dict(d: dict) -> Config:
@@ -534,3 +444,51 @@ def save_config(config: Config, path) -> None:
 def read_config(path) -> Config:
     """Read a config written by :func:`save_config`."""
     return from_dict(json.loads(pathlib.Path(path).read_text()))
+
+
+# ---------------------------------------------------------------------------------------------
+# Bookkeeping tables (read by the functions above and by other modules)
+
+
+EXTENSIONS = (
+    # data: the paper trains on every window of subjects 1-4, starting every 20 frames, unmirrored
+    "data.validation_files", "data.extra_train_dirs", "data.random_starts", "data.mirror",
+    # model
+    "model.keyframe_velocity", "model.noise_correlation", "model.posterior_horizon",
+    # loss: terms and weightings beyond Eq. 9
+    "loss.kl_warmup_steps", "loss.free_bits", "loss.prior_kl_weight", "loss.prior_rollout",
+    "loss.prior_sample_fraction", "loss.prior_sample_reconstruction_weight", "loss.prior_best_of",
+    "loss.foot_skate_weight", "loss.foot_skate_contacts", "loss.foot_velocity_weight",
+    "loss.near_keyframe_weight", "loss.near_keyframe_frames",
+    # train: the paper keeps the learning rate constant and trains at max_length once the schedule reaches it
+    "train.lr_decay_to", "train.lr_decay_from_step", "train.lr_decay_until_step", "train.length_after_schedule",
+)
+"""Every mechanism the paper does not have ("section.field"), off at its default; :func:`extensions_on`."""
+
+CHOICES = {
+    ("data", "dataset"): ("lafan1", "h36m", "bvh_folder"),  # stitchjax.datasets.REGISTRY has one entry each
+    ("model", "matmul_dtype"): ("float32", "bfloat16"),
+    ("model", "variance_blend"): ("std", "var"),
+    ("model", "posterior"): ("next_frame", "none"),
+    ("model", "gamma_schedule"): ("direction", "transition"),
+    ("model", "keyframe_velocity"): ("zero", "mean"),
+    ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
+    ("loss", "foot_skate_contacts"): ("truth", "height", "height_either"),
+    ("train", "scan_remat"): ("none", "dots", "nothing", "taped"),  # rollout.SCAN_REMAT has one policy each
+    ("train", "length_after_schedule"): ("max", "uniform"),  # schedule.transition_length
+}
+"""The values a string field takes, checked by :func:`apply_overrides` before any work starts."""
+
+POSTERIOR_ONLY_FIELDS = (
+    ("model", "posterior_horizon"), ("loss", "free_bits"), ("loss", "prior_kl_weight"), ("loss", "prior_rollout"),
+    ("loss", "prior_sample_fraction"), ("loss", "prior_sample_reconstruction_weight"), ("loss", "prior_best_of"),
+)
+"""Fields that act only through the posterior q (or on windows drawn from the prior instead of q): inert with
+model.posterior="none" (:func:`inert_fields`)."""
+
+FINE_TUNABLE_MODEL_FIELDS = ("keyframe_velocity", "noise_correlation", "posterior_horizon")
+"""Model fields a fine-tune (``--init-from``, stitchjax.resume) may change: they change what the generators are fed,
+not what their parameters mean."""
+
+RETIRED_FIELDS = {("train", "length_counts_keyframes"), ("train", "output_dir")}
+"""Removed fields (read nowhere): :func:`from_dict` ignores them in a saved config."""
