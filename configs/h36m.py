@@ -5,22 +5,18 @@ Subjects S1, S5, S6, S7, S8 train (S9, S11 test), windows of 50 frames with offs
 the LAFAN1 scales (cm) carry over. Train with:
     bin/train --config h36m --workdir runs/h36m --data ../shared/data/h36m
 """
-import dataclasses
-import pathlib
-
 from stitchjax import h36m
-from stitchjax.config import Config, load_config
+from stitchjax.config import Config, DataConfig
 
 
 def get_config() -> Config:
-    base = load_config(str(pathlib.Path(__file__).with_name("lafan1.py")))
-    data = dataclasses.replace(
-        base.data,
-        dataset="h36m",
-        train_subjects=("S1", "S5", "S6", "S7", "S8"),  # paper: standard H3.6M training subjects
-        window=base.data.window,  # same windowing as LAFAN1 (L up to 50 generated frames + 2 keyframes)
-        offset=20,  # paper
-        fps=25.0,  # stitchjax.h36m keeps every second frame of the 50 Hz files
-        parents=tuple(h36m.PARENTS),  # the 21 joints stitchjax.h36m keeps
+    return Config(
+        name="h36m",
+        data=DataConfig(
+            dataset="h36m",
+            train_subjects=("S1", "S5", "S6", "S7", "S8"),  # paper: standard H3.6M training subjects
+            # window and offset as for LAFAN1 (L up to 50 generated frames + 2 keyframes, offset 20: paper)
+            fps=25.0,  # stitchjax.h36m keeps every second frame of the 50 Hz files
+            parents=tuple(h36m.PARENTS),  # the 21 joints stitchjax.h36m keeps
+        ),
     )
-    return dataclasses.replace(base, name="h36m", data=data)

@@ -15,42 +15,34 @@ foot-skate term, and had no validation split: the runs in results/lafan1_cpu wer
 The recipes built on them are `results/lafan1_cpu/scratch_mixed/lafan1_cpu_mixed.py` (the committed scratch_mixed
 model) and `lafan1_cpu_release`.
 """
-import dataclasses
-import pathlib
-
-from stitchjax.config import Config, load_config
+from stitchjax.config import variant
 
 # The validation split: whole training takes (~14 % of the frames of subjects 1-4), a fall, floor work and
 # obstacle locomotion, so that it holds both locomotion and other motion.
 VALIDATION_TAKES = ("fallAndGetUp1_subject1", "ground1_subject4", "obstacles1_subject2")
 
-
-def get_config() -> Config:
-    base = load_config(str(pathlib.Path(__file__).with_name("lafan1.py")))
-    model = dataclasses.replace(
-        base.model,
-        encoder_widths=(128, 128, 128),  # reason: 2-core CPU budget
-        lstm_size=256,
-        latent_dim=32,
-        decoder_widths=(256, 256),
-        gating_widths=(32, 32),
-        disc_widths=(128, 64),
-    )
-    train = dataclasses.replace(
-        base.train,
-        learning_rate=5e-4,  # reason: a narrower model and a short run: larger steps than the paper's 1e-4
-        min_length=5,  # paper
-        max_length=50,
-        length_step=5,  # reason: 5 -> 50 in 9 increments
-        epochs_per_length=1,
-        length_buckets=(15, 30, 50),  # reason: three compiles instead of one full-window masked step
-        max_steps=3000,
-        log_every=25,
-        checkpoint_every_steps=250,
-        eval_every=250,  # reason: validation (32 windows of the validation takes, 4 samples, L = 30 and 50)
-        # costs ~2 % of the run
-        eval_lengths=(30, 50),
-    )
-    phase = dataclasses.replace(base.phase, steps=2000)  # reason: converges in a couple of thousand steps
-    data = dataclasses.replace(base.data, validation_files=VALIDATION_TAKES)
-    return dataclasses.replace(base, name="lafan1_cpu", data=data, model=model, train=train, phase=phase)
+get_config = variant(
+    "lafan1",
+    "data.validation_files=" + ",".join(VALIDATION_TAKES),
+    # model: the 2-core CPU budget
+    "model.encoder_widths=128,128,128",
+    "model.lstm_size=256",
+    "model.latent_dim=32",
+    "model.decoder_widths=256,256",
+    "model.gating_widths=32,32",
+    "model.disc_widths=128,64",
+    # train
+    "train.learning_rate=5e-4",  # reason: a narrower model and a short run: larger steps than the paper's 1e-4
+    "train.min_length=5",  # paper
+    "train.max_length=50",
+    "train.length_step=5",  # reason: 5 -> 50 in 9 increments
+    "train.epochs_per_length=1",
+    "train.length_buckets=15,30,50",  # reason: three compiles instead of one full-window masked step
+    "train.max_steps=3000",
+    "train.log_every=25",
+    "train.checkpoint_every_steps=250",
+    "train.eval_every=250",  # reason: validation (32 windows of the validation takes, 4 samples, L = 30 and 50)
+    "train.eval_lengths=30,50",
+    "phase.steps=2000",  # reason: converges in a couple of thousand steps
+    name="lafan1_cpu",
+)

@@ -6,40 +6,35 @@ The lafan1 model with every width cut to 64 and shorter training windows, so tha
 pretraining and a few hundred steps fit in a few minutes on 2 CPU cores. It shows the pipeline working
 end to end (losses fall, checkpoints, report); it is not a model to evaluate.
 """
-import dataclasses
-import pathlib
-
-from stitchjax.config import Config, load_config
+from stitchjax.config import Config, DataConfig, ModelConfig, PhaseConfig, TrainConfig
 
 
 def get_config() -> Config:
-    base = load_config(str(pathlib.Path(__file__).with_name("lafan1.py")))
-    data = dataclasses.replace(
-        base.data,
-        window=24,  # reason: short windows (transitions up to 22 frames) keep the scan short on CPU
-        offset=8,  # reason: more, overlapping windows from the few sample clips
+    return Config(
+        name="quickstart",
+        data=DataConfig(
+            window=24,  # reason: short windows (transitions up to 22 frames) keep the scan short on CPU
+            offset=8,  # reason: more, overlapping windows from the few sample clips
+        ),
+        model=ModelConfig(
+            encoder_widths=(64, 64, 64),  # reason: small = fast on CPU
+            lstm_size=64,
+            latent_dim=16,
+            decoder_widths=(64, 64),
+            gating_widths=(16, 16),
+            disc_widths=(64, 32),
+            stitch_buffer=2,  # reason: short transitions
+        ),
+        train=TrainConfig(
+            batch_size=16,  # reason: CPU
+            learning_rate=1e-3,  # reason: a small model and a short run: larger steps than the paper's 1e-4
+            min_length=5,  # paper
+            max_length=22,  # reason: window 24 - 2 keyframes
+            length_buckets=(),  # reason: one compile (traced length, masked): compile time dominates a short run
+            epochs_per_length=1,  # reason: reach long transitions within the short run
+            max_steps=800,  # reason: ~3-4 minutes on 2 CPU cores, compilation included
+            log_every=10,
+            checkpoint_every_steps=100,
+        ),
+        phase=PhaseConfig(steps=500, hidden_dim=64),  # reason: seconds, not minutes
     )
-    model = dataclasses.replace(
-        base.model,
-        encoder_widths=(64, 64, 64),  # reason: small = fast on CPU
-        lstm_size=64,
-        latent_dim=16,
-        decoder_widths=(64, 64),
-        gating_widths=(16, 16),
-        disc_widths=(64, 32),
-        stitch_buffer=2,  # reason: short transitions
-    )
-    train = dataclasses.replace(
-        base.train,
-        batch_size=16,  # reason: CPU
-        learning_rate=1e-3,  # reason: a small model and a short run: larger steps than the paper's 1e-4
-        min_length=5,  # paper
-        max_length=22,  # reason: window 24 - 2 keyframes
-        length_buckets=(),  # reason: one compile (traced length, masked): compile time dominates a short run
-        epochs_per_length=1,  # reason: reach long transitions within the short run
-        max_steps=800,  # reason: ~3-4 minutes on 2 CPU cores, compilation included
-        log_every=10,
-        checkpoint_every_steps=100,
-    )
-    phase = dataclasses.replace(base.phase, steps=500, hidden_dim=64)  # reason: seconds, not minutes
-    return dataclasses.replace(base, name="quickstart", data=data, model=model, train=train, phase=phase)

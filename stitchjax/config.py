@@ -19,6 +19,7 @@ import importlib.util
 import json
 import os
 import pathlib
+import sys
 import typing
 
 __all__ = [
@@ -272,9 +273,14 @@ def load_config(name: str) -> Config:
 def variant(base: str, *overrides: str, name: str):
     """``get_config`` of config ``base`` with "section.field=value" overrides and a new name; a config file
     that changes a few fields is one line: ``get_config = variant("lafan1", "model.bidirectional=false",
-    name="ablate_no_bidirectional")``."""
+    name="ablate_no_bidirectional")``. ``base`` is looked up beside the calling file first (so a configs folder
+    loaded by path uses its own bases), then as :func:`load_config` finds it."""
+    caller = sys._getframe(1).f_globals.get("__file__")
+    sibling = pathlib.Path(caller).with_name(f"{base}.py") if caller and not base.endswith(".py") else None
+
     def get_config() -> Config:
-        return dataclasses.replace(apply_overrides(load_config(base), list(overrides)), name=name)
+        source = str(sibling) if sibling is not None and sibling.is_file() else base
+        return dataclasses.replace(apply_overrides(load_config(source), list(overrides)), name=name)
 
     return get_config
 

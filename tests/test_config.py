@@ -138,3 +138,58 @@ def test_the_validation_takes_of_every_config_are_training_files_never_test_file
         data = C.apply_overrides(C.load_config("lafan1_cpu"), [f"data.validation_files={bad}"]).data
         with pytest.raises(ValueError, match="is a test file"):
             datasets.validation_files(data_dir, data)
+
+
+def _differences(a: C.Config, b: C.Config) -> set:
+    """"section.field" of every field where two configs differ (name left out)."""
+    return {f"{s}.{f.name}" for s in C._SECTIONS for f in dataclasses.fields(getattr(a, s))
+            if getattr(getattr(a, s), f.name) != getattr(getattr(b, s), f.name)}
+
+
+def test_every_named_config_keeps_its_values():
+    """Each file in configs/ loads under its own name and sets what it is documented to set (a few key fields)."""
+    configs = {name: C.load_config(name) for name in C.available_configs()}
+    assert all(config.name == name for name, config in configs.items())
+    paper = configs["lafan1"]
+    assert paper == dataclasses.replace(C.Config(), name="lafan1")  # the paper: every default
+    for name, field in [("ablate_no_aligning", "model.bidirectional_aligning"),
+                        ("ablate_no_bidirectional", "model.bidirectional"),
+                        ("ablate_no_latent_interpolation", "model.latent_interpolation"),
+                        ("ablate_no_phase", "model.phase_modulation"), ("ablate_no_stitch_loss", "loss.stitch_weight")]:
+        assert _differences(configs[name], paper) == {field}, name
+    quick = configs["quickstart"]
+    assert (quick.data.window, quick.data.offset, quick.model.lstm_size, quick.model.latent_dim) == (24, 8, 64, 16)
+    assert (quick.train.batch_size, quick.train.learning_rate, quick.train.max_length) == (16, 1e-3, 22)
+    assert (quick.train.max_steps, quick.train.length_buckets, quick.phase.steps) == (800, (), 500)
+    cmu = configs["cmu"]  # quickstart on the CMU skeleton: only data fields differ
+    assert {f.split(".")[0] for f in _differences(cmu, quick)} == {"data"}
+    assert (cmu.data.dataset, cmu.data.num_joints, cmu.data.unit_scale, cmu.data.train_subjects) == (
+        "bvh_folder", 31, 5.6444, ())
+    h36m = configs["h36m"]
+    assert _differences(h36m, paper) == {"data.dataset", "data.train_subjects", "data.fps", "data.parents"}
+    assert (h36m.data.num_joints, h36m.data.fps, h36m.data.window, h36m.data.offset) == (21, 25.0, 52, 20)
+    tiny = configs["tiny"]
+    assert (tiny.model.lstm_size, tiny.model.latent_dim, tiny.train.max_length, tiny.phase.num_layers) == (16, 4, 8, 1)
+    cpu = configs["lafan1_cpu"]
+    assert _differences(cpu, paper) == {
+        "data.validation_files", "model.encoder_widths", "model.lstm_size", "model.decoder_widths",
+        "model.gating_widths", "model.disc_widths", "train.learning_rate", "train.length_step",
+        "train.epochs_per_length", "train.length_buckets", "train.max_steps", "train.log_every",
+        "train.checkpoint_every_steps", "train.eval_every", "train.eval_lengths", "phase.steps"}
+    assert (cpu.model.lstm_size, cpu.train.learning_rate, cpu.train.length_buckets, cpu.train.max_steps) == (
+        256, 5e-4, (15, 30, 50), 3000)
+    release = configs["lafan1_cpu_release"]
+    assert release.data.validation_files == cpu.data.validation_files and release.train.max_steps == 20000
+    assert (release.loss.kl_weight, release.loss.foot_skate_weight, release.train.lr_decay_to) == (0.1, 128.0, 0.05)
+
+
+def test_a_variant_finds_its_base_beside_it(tmp_path, monkeypatch):
+    """A configs folder loaded by path uses its own base, whatever STITCHJAX_CONFIGS names."""
+    (tmp_path / "base.py").write_text(
+        "from stitchjax.config import Config, ModelConfig\n\n"
+        "def get_config():\n    return Config(name='base', model=ModelConfig(latent_dim=3))\n")
+    (tmp_path / "child.py").write_text(
+        "from stitchjax.config import variant\n\nget_config = variant('base', 'model.lstm_size=8', name='child')\n")
+    monkeypatch.setenv("STITCHJAX_CONFIGS", str(tmp_path / "elsewhere"))
+    child = C.load_config(str(tmp_path / "child.py"))
+    assert (child.name, child.model.latent_dim, child.model.lstm_size) == ("child", 3, 8)
