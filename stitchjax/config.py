@@ -91,17 +91,16 @@ class ModelConfig:
     decoder_widths: tuple = (512, 512)  # reason: MANN-style 3-layer experts (2 hidden layers of 512)
     gating_widths: tuple = (64, 64)  # reason: MANN gating network is a small 3-layer MLP on the phase
     activation: str = "elu"  # reason: MANN experts and gating use ELU
-    posterior: str = "next_frame"  # reason: the paper does not say where z's information comes from (docs/design.md
-    # §5.5): "next_frame" draws z from q(z | h, ground-truth next frame) at training with KL(q || p) and from the
-    # prior p at inference; "none" draws z from p at training too (Eq. 5 as written; z then carries nothing)
+    posterior: str = "next_frame"  # reason: z drawn from the prior at training carries nothing (docs/design.md §5.5).
+    # "next_frame": at training z ~ q(z | h, ground-truth next frame) with KL(q || p), at inference z ~ p;
+    # "none": z ~ p at training too (Eq. 5 as written)
     z_every_layer: bool = True  # reason: z enters every decoder layer (MANN/MVAE experts), so it is not washed out
     decoder_uses_lstm: bool = False  # reason: True adds a deterministic path around z, and the posterior collapses
     time_to_target_input: bool = True  # reason: the generator must know when it arrives (RMIB's time-to-arrival)
     stitch_buffer: int = 4  # reason: K (paper leaves it open); 2K = 8 overlap frames, clipped to L//2
     variance_blend: str = "std"  # reason: "std" blends mu and sigma linearly (the W2 geodesic between diagonal
     # Gaussians: sigma stays 1 when both are 1); "var" = law of (1-g)z + g z_t, z independent
-    contact_input_gradient: bool = False  # reason: True lets later terms' gradients reach the contact outputs
-    # through the next step's input, and the contacts turn into hidden state instead of contacts
+    contact_input_gradient: bool = False  # reason: contact outputs fed back without gradient stay contacts
     stop_phase_gradient: bool = True  # reason: the phase network is frozen and only conditions gating
     disc_widths: tuple = (512, 256)  # reason: RMIB discriminators: temporal conv then 2 dense layers
     disc_features: str = "positions+velocity"  # reason: FK positions relative to the root (J-1)*3 and the root
@@ -130,8 +129,8 @@ class LossConfig:
     disc_weight: float = 0.1  # paper alpha4 (scales L_D in the discriminator update)
     gen_weight: float = 0.1  # paper alpha5 (scales L_G in the generator update)
     # --- choices the paper leaves open
-    reduction: str = "sum"  # reason: "sum" = ||.||_1 as written in the paper (sum over components,
-    # mean over frames and batch); "mean" also averages over components
+    reduction: str = "sum"  # reason: ||.||_1 as written: sum over components, mean over frames and batch
+    # ("mean" also averages over components)
     # --- extensions (off by default; config.EXTENSIONS)
     kl_warmup_steps: int = 0  # > 0 ramps the KL weight linearly from 0 over this many steps
     free_bits: float = 0.0  # nats per frame (summed over latent dims) of KL(q || p) that cost nothing (Kingma 2016)
@@ -183,14 +182,13 @@ class TrainConfig:
     eval_lengths: tuple = (30,)  # reason: the paper's mid length; (30, 50) adds the long one
     eval_samples: int = 4  # reason: enough for APD and a stable mean ADE on 32 windows
     # --- speed (benchmarks/README.md)
-    weight_gradients_after_scan: bool = True  # reason: same gradients, faster: each generator kernel's gradient is
-    # one matmul over all rollout steps after the scan, not one small matmul per step inside it (rollout.py)
+    weight_gradients_after_scan: bool = True  # reason: same gradients, faster (one matmul per kernel after the scan)
     scan_remat: str = "none"  # reason: autodiff's default; what the rollout's scan keeps for the backward pass
     # (rollout.SCAN_REMAT): "none" = every intermediate; "dots" = only matmul outputs; "nothing" = only the carry;
     # "taped" = one undifferentiated scan records a tape that is replayed differentiated (stitchjax/tape.py; needs
     # weight_gradients_after_scan and a tapeable model.activation); the same gradients with each
-    length_buckets: tuple = (12, 24, 50)  # reason: static scan lengths (window cut to bucket + 2 frames, one
-    # compile each) are faster than one traced length masked in the full window; () = masked (one compile)
+    length_buckets: tuple = (12, 24, 50)  # reason: static scan lengths (one compile each) beat one masked length
+    # (the window is cut to bucket + 2 frames); () = one traced length masked in the full window, one compile
     # --- extensions (off by default; config.EXTENSIONS)
     lr_decay_to: float = 1.0  # 1 = constant (the paper); < 1: the learning rate falls linearly to this fraction of
     # learning_rate from lr_decay_from_step to lr_decay_until_step, and stays there (schedule.learning_rate_factor)
