@@ -185,8 +185,8 @@ class TrainConfig:
     weight_gradients_after_scan: bool = True  # reason: same gradients, faster (one matmul per kernel after the scan)
     scan_remat: str = "none"  # reason: autodiff's default; what the rollout's scan keeps for the backward pass
     # (rollout.SCAN_REMAT): "none" = every intermediate; "dots" = only matmul outputs; "nothing" = only the carry;
-    # "taped" = one undifferentiated scan records a tape that is replayed differentiated (stitchjax/tape.py; needs
-    # weight_gradients_after_scan and a tapeable model.activation); the same gradients with each
+    # "taped" = one undifferentiated scan records a tape that is replayed differentiated (stitchjax/accel/tape.py;
+    # needs weight_gradients_after_scan and a tapeable model.activation); the same gradients with each
     length_buckets: tuple = (12, 24, 50)  # reason: static scan lengths (one compile each) beat one masked length
     # (the window is cut to bucket + 2 frames); () = one traced length masked in the full window, one compile
     # --- extensions (off by default; config.EXTENSIONS)

@@ -21,8 +21,8 @@ Every generator matmul goes through :func:`kernel_matmul`, so the rollout can ta
 of its scan (``train.weight_gradients_after_scan``, see ``rollout.py``): under a ``"probes"`` variable
 collection each product ``x @ W`` gets a zero probe added and records its input ``x``; the probe's
 gradient is the product's output gradient, and ``dW = sum over steps of x^T dy`` becomes one large matmul.
-``model.matmul_dtype`` sets the precision of those matmuls' operands (:func:`matmul`). Every nonlinearity of
-the step is a tape point (``stitchjax.tape``), so ``train.scan_remat="taped"`` can record it once and replay it.
+``model.matmul_dtype`` sets the precision of those matmuls' operands (``accel.matmul``). Every nonlinearity of
+the step is a tape point (``stitchjax.accel.tape``), so ``train.scan_remat="taped"`` can record it once and replay it.
 
 Discriminators (RMIB style): a temporal convolution whose kernel spans the whole window (2 or 10 frames)
 over per-frame features, then dense layers; one score per window position.
@@ -40,31 +40,17 @@ import jax
 import jax.numpy as jnp
 
 from stitchjax import features
-from stitchjax import tape
+from stitchjax.accel import tape
+from stitchjax.accel.matmul import elu
+from stitchjax.accel.probes import LSTM_GATES, input_size, kernel_matmul
 from stitchjax.config import CHOICES
 
 __all__ = [
-    "MATMUL_DTYPES", "SHARED_PROBES", "KERNEL_OUTPUT_TAPES", "elu", "matmul", "kernel_matmul", "input_size",
     "Dense", "LSTMCell", "MLP", "MoEDense", "GeneratorSpec", "generator_spec", "DiscriminatorSpec",
     "discriminator_spec", "ModelSpec", "model_spec", "Generator",
     "Posterior", "LatentMLP", "decode", "sample_latent", "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry", "blend_gaussians",
     "disc_feature_dim", "phase_dim", "generator_input_dims",
 ]
-
-@jax.custom_jvp
-def elu(x):
-    """ELU (alpha 1), the values of ``nn.elu``; its derivative is formed from the output y (1 where y > 0,
-    else y + 1 = exp(x)), so the backward pass keeps one array per layer instead of x's exponential and two
-    masks (benchmarks/README.md, copies and stacking per step)."""
-    return jnp.where(x > 0, x, jnp.expm1(jnp.minimum(x, 0)))
-
-
-@elu.defjvp
-def _elu_jvp(primals, tangents):
-    (x,), (dx,) = primals, tangents
-    y = elu(x)
-    return y, dx * jnp.where(y > 0, 1, y + 1).astype(y.dtype)
-
 
 _ACTIVATION_FUNCTIONS = {"elu": elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
                          "leaky_relu": lambda x: nn.leaky_relu(x, 0.2), "tanh": jnp.tanh}
@@ -82,100 +68,12 @@ def activation_fn(name: str):
 # What a layer may apply to its matmul output: the activations, and the identity / softmax of output layers.
 _LAYER_FUNCTIONS = {**_ACTIVATIONS, "identity": lambda y: y, "softmax": lambda y: jax.nn.softmax(y, axis=-1)}
 
-MATMUL_DTYPES = {name: jnp.dtype(name) for name in CHOICES[("model", "matmul_dtype")]}
-
-
-def matmul(x, kernel, dtype: str = "float32"):
-    """x (..., in) @ kernel (in, out) -> float32 (..., out).
-
-    dtype "float32": plain float32 matmul. "bfloat16": both operands rounded to bfloat16, products
-    accumulated in float32, and the same for the two gradient products (output gradient rounded to
-    bfloat16): only the matmuls' operands lose precision; everything between them stays float32.
-    """
-    if dtype not in MATMUL_DTYPES:
-        raise ValueError(f"model.matmul_dtype={dtype!r}: use one of {', '.join(MATMUL_DTYPES)}")
-    if dtype == "float32":
-        return x @ kernel
-    return _low_precision_matmul(x, kernel, dtype)
-
-
-@functools.partial(jax.custom_vjp, nondiff_argnums=(2,))
-def _low_precision_matmul(x, kernel, dtype):
-    return _low_precision_matmul_forward(x, kernel, dtype)[0]
-
-
-def _low_precision_matmul_forward(x, kernel, dtype):
-    low = MATMUL_DTYPES[dtype]
-    x, kernel = x.astype(low), kernel.astype(low)
-    return jnp.matmul(x, kernel, preferred_element_type=jnp.float32), (x, kernel)
-
-
-def _low_precision_matmul_backward(dtype, residuals, dy):
-    # Written out because autodiff of the forward would run both products on float32 operands.
-    x, kernel = residuals
-    dy = dy.astype(x.dtype)
-    dx = jax.lax.dot_general(dy, kernel, (((dy.ndim - 1,), (1,)), ((), ())), preferred_element_type=jnp.float32)
-    leading = tuple(range(x.ndim - 1))
-    dkernel = jax.lax.dot_general(x, dy, ((leading, leading), ((), ())), preferred_element_type=jnp.float32)
-    return dx, dkernel
-
-
-_low_precision_matmul.defvjp(_low_precision_matmul_forward, _low_precision_matmul_backward)
-
-
-# Kernels whose product is only ever summed with another kernel's product (the LSTM's gates): they share
-# that kernel's probe, whose gradient is the sum's output gradient, so the scan stacks it once.
-SHARED_PROBES = {"hidden_kernel": "input_kernel"}
-_LSTM_GATES = ("input_gate", "forget_gate", "cell_input", "output_gate")  # the gate order i, f, g, o
-# Replayed (train.scan_remat="taped"): each kernel's output gradient is the cotangent of these output-tape
-# points of its module (tape.OUTPUT_TAPE), concatenated along the output axis in this order.
-KERNEL_OUTPUT_TAPES = {"kernel": ("output",), "input_kernel": _LSTM_GATES, "hidden_kernel": _LSTM_GATES}
-
-
-def kernel_matmul(module: nn.Module, x, kernel, name: str, dtype: str = "float32"):
-    """``x @ kernel`` (kernel (in, ...) flattened to (in, out)) for ``module``'s parameter ``name``.
-
-    x: (..., in), or a tuple of parts (..., in_i) whose concatenation is the input (the parts are recorded
-    apart, so a part that is also another matmul's input or a taped value is recorded once).
-    dtype: the operands' precision (see :func:`matmul`); the result is float32 either way.
-
-    Plain matmul, except: with a mutable ``"inputs"`` collection the input (or its parts) is recorded under
-    ``name``; with a ``"probes"`` collection holding ``name`` (gradient probing, ``rollout.rollout_batch``)
-    the kernel is held constant and the zero probe (..., out) is added to the product (a kernel of
-    SHARED_PROBES is held constant and adds none: the other kernel's probe serves both). Replaying a tape
-    (``stitchjax.tape``) the kernel is held constant too: its output tape's cotangent is the output gradient.
-    The caller recovers the kernel gradient as x^T (output gradient) from the recorded inputs.
-    """
-    parts = _parts(x)
-    x = parts[0] if len(parts) == 1 else jnp.concatenate(parts, axis=-1)
-    flat = kernel.reshape(kernel.shape[0], -1)
-    if module.is_mutable_collection("inputs") and not module.is_initializing():
-        module.put_variable("inputs", name, parts if len(parts) > 1 else x)
-    probe = SHARED_PROBES.get(name, name)
-    if module.has_variable(tape.OUTPUT_TAPE, KERNEL_OUTPUT_TAPES[name][0]):  # replayed: the output tape probes
-        return matmul(x, jax.lax.stop_gradient(flat), dtype)
-    if not module.has_variable("probes", probe):
-        return matmul(x, flat, dtype)
-    y = matmul(x, jax.lax.stop_gradient(flat), dtype)
-    return y if probe != name else y + module.get_variable("probes", name)
-
-
-def _parts(x) -> tuple:
-    """A matmul input as the tuple of its parts (:func:`kernel_matmul`): x itself, or the parts given."""
-    return tuple(x) if isinstance(x, (tuple, list)) else (x,)
-
-
-def input_size(x) -> int:
-    """Last-axis size of a matmul input or of the concatenation of its parts (:func:`kernel_matmul`)."""
-    return sum(part.shape[-1] for part in _parts(x))
-
-
 class Dense(nn.Module):
     """Dense layer x (..., in) -> activation(x @ kernel + bias) (..., features), flax ``nn.Dense``
     initialisation and parameter names; x may be a tuple of parts (:func:`kernel_matmul`).
 
     activation: a ``model.activation`` name, "identity" or "softmax" (over the features); taped as the
-    output-tape point "output" (``stitchjax.tape``).
+    output-tape point "output" (``stitchjax.accel.tape``).
     """
 
     features: int
@@ -220,7 +118,7 @@ class LSTMCell(nn.Module):
         gates = (kernel_matmul(self, x, input_kernel, "input_kernel", self.matmul_dtype)
                  + kernel_matmul(self, h, hidden_kernel, "hidden_kernel", self.matmul_dtype) + bias)
         i, f, g, o = (tape.tape_point(self, name, kind, gate, fn, True) for name, kind, fn, gate in zip(
-            _LSTM_GATES, ("sigmoid", "sigmoid", "tanh", "sigmoid"),
+            LSTM_GATES, ("sigmoid", "sigmoid", "tanh", "sigmoid"),
             (jax.nn.sigmoid, jax.nn.sigmoid, jnp.tanh, jax.nn.sigmoid), jnp.split(gates, 4, axis=-1)))
         c = f * c + i * g
         h = o * tape.tape_point(self, "cell_tanh", "tanh", c, jnp.tanh)

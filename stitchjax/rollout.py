@@ -35,8 +35,8 @@ sizes and switches), built once by :func:`rollout_spec` where the train step is 
 or a model is loaded (``trained_model.Model.rollout_spec``), never the whole Config.
 
 Gradients: with ``train.weight_gradients_after_scan`` (default) the generators' kernel gradients are formed
-after the scan, one matmul per kernel (``stitchjax.scan_gradients``); same numbers, less time. With
-``train.scan_remat="taped"`` the scan runs twice, recording then replaying a tape (``stitchjax.tape``), so
+after the scan, one matmul per kernel (``stitchjax.accel.scan_gradients``); same numbers, less time. With
+``train.scan_remat="taped"`` the scan runs twice, recording then replaying a tape (``stitchjax.accel.tape``), so
 that each value the backward pass needs is stacked once.
 """
 from __future__ import annotations
@@ -51,9 +51,9 @@ from stitchjax import features as F
 from stitchjax import networks
 from stitchjax import phase as phase_lib
 from stitchjax import rotations as R
-from stitchjax import scan_gradients
 from stitchjax import skeleton as skel
-from stitchjax import tape as tape_lib
+from stitchjax.accel import scan_gradients
+from stitchjax.accel import tape as tape_lib
 from stitchjax.config import CHOICES
 
 __all__ = ["RolloutSpec", "rollout_spec", "rollout", "rollout_batch", "keyframes_from_batch", "num_steps",
@@ -157,7 +157,7 @@ def _step(params, phase_params, spec, carry, current, target, distance, gamma, e
     use_prior: None or () bool, True = z from the prior even with next_state (``Generator``).
 
     probes: None, or this step's zero probes for the generator's kernels (``scan_gradients.zero_probes``);
-    tape: None, or this step's taped values to replay, {tape collection: tree} (``stitchjax.tape``);
+    tape: None, or this step's taped values to replay, {tape collection: tree} (``stitchjax.accel.tape``);
     record: the collections to record, () or some of ("inputs", "tape", "output_tape"); then the fourth
     output is {collection: tree} (else None).
     """
@@ -311,9 +311,9 @@ def rollout(gen_params, phase_params, start, target, offsets, key, spec, length,
       probes: optional {"forward", "backward"} zero probes with a leading (num_steps,) axis
         (``scan_gradients.zero_probes``); then (without tape) the result is (dict, {"inputs": inputs}),
         inputs = the generators' kernel-matmul inputs per step, {"forward", "backward"} trees of
-        (num_steps, in) arrays (or tuples of the input's parts, ``networks.kernel_matmul``).
+        (num_steps, in) arrays (or tuples of the input's parts, ``accel.probes.kernel_matmul``).
       tape: None; "record": the result is (dict, {"inputs": ..., "tape": ..., "output_tape": ...}), the
-        kernel-matmul inputs and the values the generator steps tape (``stitchjax.tape``), each distinct
+        kernel-matmul inputs and the values the generator steps tape (``stitchjax.accel.tape``), each distinct
         array recorded once; or {"tape": ..., "output_tape": ...} as recorded, to replay
         (``train.scan_remat="taped"``: the steps' nonlinearities and matmuls are not recomputed, and their
         derivatives come from the taped values).

@@ -6,7 +6,9 @@ import pytest
 
 from stitchjax import config as C
 from stitchjax import networks as N
-from stitchjax import tape
+from stitchjax.accel import matmul as accel_matmul
+from stitchjax.accel.matmul import elu
+from stitchjax.accel import tape
 
 
 
@@ -163,7 +165,7 @@ def test_tape_point_records_then_replays_with_the_derivative_and_the_output_grad
 
 @pytest.mark.parametrize("kind", ["elu", "relu", "leaky_relu", "sigmoid", "tanh", "softmax"])
 def test_tape_derivatives_match_autodiff(kind):
-    fns = {"elu": N.elu, "relu": jax.nn.relu, "leaky_relu": lambda v: jax.nn.leaky_relu(v, 0.2),
+    fns = {"elu": elu, "relu": jax.nn.relu, "leaky_relu": lambda v: jax.nn.leaky_relu(v, 0.2),
            "sigmoid": jax.nn.sigmoid, "tanh": jnp.tanh, "softmax": lambda v: jax.nn.softmax(v, axis=-1)}
     x = jax.random.normal(jax.random.PRNGKey(2), (5, 7)) * 2.0
     dy = jax.random.normal(jax.random.PRNGKey(3), (5, 7))
@@ -175,13 +177,13 @@ def test_bfloat16_matmul_rounds_only_the_operands_forward_and_backward():
     x = jax.random.normal(jax.random.PRNGKey(1), (2, 5, 48))
     kernel = jax.random.normal(jax.random.PRNGKey(2), (48, 24))
     as_bf16 = lambda a: np.asarray(jnp.asarray(a).astype(jnp.bfloat16).astype(jnp.float32), np.float64)  # noqa: E731
-    y = N.matmul(x, kernel, "bfloat16")
+    y = accel_matmul.matmul(x, kernel, "bfloat16")
     assert y.dtype == jnp.float32
     np.testing.assert_allclose(y, as_bf16(x) @ as_bf16(kernel), rtol=1e-5, atol=1e-4)
-    assert np.abs(np.asarray(y) - np.asarray(N.matmul(x, kernel))).max() > 1e-3  # really rounded
+    assert np.abs(np.asarray(y) - np.asarray(accel_matmul.matmul(x, kernel))).max() > 1e-3  # really rounded
 
     def loss(x, kernel, dtype):
-        return jnp.sum(jnp.sin(N.matmul(x, kernel, dtype)))
+        return jnp.sum(jnp.sin(accel_matmul.matmul(x, kernel, dtype)))
 
     dx, dkernel = jax.grad(loss, argnums=(0, 1))(x, kernel, "bfloat16")
     assert dx.dtype == jnp.float32 and dkernel.dtype == jnp.float32
@@ -193,7 +195,7 @@ def test_bfloat16_matmul_rounds_only_the_operands_forward_and_backward():
     dx32, dkernel32 = jax.grad(loss, argnums=(0, 1))(x, kernel, "float32")
     np.testing.assert_allclose(dkernel, dkernel32, atol=0.05 * float(np.abs(dkernel32).max()))
     with pytest.raises(ValueError, match="matmul_dtype='float16'"):
-        N.matmul(x, kernel, "float16")
+        accel_matmul.matmul(x, kernel, "float16")
 
 
 def test_generator_matmul_dtype_keeps_parameters_and_changes_outputs_slightly():
@@ -223,11 +225,11 @@ def test_elu_has_flax_values_and_gradients_formed_from_its_output():
     import flax.linen as nn
 
     x = jnp.concatenate([jnp.linspace(-8.0, 8.0, 101), jnp.zeros(1)])
-    np.testing.assert_array_equal(N.elu(x), nn.elu(x))
-    ours = jax.grad(lambda v: jnp.sum(jnp.sin(N.elu(v))))(x)
+    np.testing.assert_array_equal(elu(x), nn.elu(x))
+    ours = jax.grad(lambda v: jnp.sum(jnp.sin(elu(v))))(x)
     flax_ = jax.grad(lambda v: jnp.sum(jnp.sin(nn.elu(v))))(x)
     np.testing.assert_allclose(ours, flax_, rtol=1e-6, atol=1e-7)
-    slopes = jax.vmap(jax.grad(N.elu))(x)  # 1 for x >= 0 here (x = 0 included, as nn.elu), exp(x) below
+    slopes = jax.vmap(jax.grad(elu))(x)  # 1 for x >= 0 here (x = 0 included, as nn.elu), exp(x) below
     np.testing.assert_allclose(slopes, np.where(np.asarray(x) > 0, 1.0, np.exp(np.asarray(x))), rtol=1e-6,
                                atol=1e-7)  # y + 1 for y near -1: absolute rounding of float32
-    np.testing.assert_allclose(jax.jvp(N.elu, (x,), (jnp.ones_like(x),))[1], slopes, rtol=1e-6)  # forward mode
+    np.testing.assert_allclose(jax.jvp(elu, (x,), (jnp.ones_like(x),))[1], slopes, rtol=1e-6)  # forward mode

@@ -3,7 +3,7 @@
 What it buys (measured, benchmarks/README.md): differentiating a ``lax.scan`` makes every backward step form
 and accumulate its own weight gradient x^T dy from one step's few rows (B = 32), a matmul CPUs and GPUs run
 far below their peak. Instead the generators' kernels are held constant inside the scan, every product
-``x @ W`` gets a zero probe added and records its input x (``networks.kernel_matmul``); the probes'
+``x @ W`` gets a zero probe added and records its input x (``accel.probes.kernel_matmul``); the probes'
 gradients are the products' output gradients dy, and after the scan each kernel's gradient is ONE matmul
 x^T dy over all B x steps rows. Same gradients (tested against plain autodiff); train step -7 % and the
 update's compile time 90 -> 25 s on a 2-core Zen 3 CPU.
@@ -18,22 +18,23 @@ from collections.abc import Mapping
 import jax
 import jax.numpy as jnp
 
-from stitchjax import networks
-from stitchjax import tape
+from stitchjax.accel import tape
+from stitchjax.accel.matmul import MATMUL_DTYPES
+from stitchjax.accel.probes import KERNEL_OUTPUT_TAPES, SHARED_PROBES
 
 __all__ = ["zero_probes", "kernel_gradients", "output_gradients", "add_kernel_gradients", "gradients_after_scan"]
 
-KERNEL_NAMES = ("kernel", "input_kernel", "hidden_kernel")  # networks.kernel_matmul parameter names
+KERNEL_NAMES = ("kernel", "input_kernel", "hidden_kernel")  # probes.kernel_matmul parameter names
 
 
 def _kernels(tree: dict, fn) -> dict:
     """The sub-tree of ``tree`` (nested dicts) whose leaves are probed kernels (not those that share another
-    kernel's probe, ``networks.SHARED_PROBES``), with ``fn`` applied to them."""
+    kernel's probe, ``probes.SHARED_PROBES``), with ``fn`` applied to them."""
     out = {}
     for name, value in tree.items():
         if isinstance(value, Mapping):
             out[name] = _kernels(value, fn)
-        elif name in KERNEL_NAMES and name not in networks.SHARED_PROBES:
+        elif name in KERNEL_NAMES and name not in SHARED_PROBES:
             out[name] = fn(value)
     return out
 
@@ -51,7 +52,7 @@ def kernel_gradients(generators: dict, inputs: dict, output_grads: dict, matmul_
     gradients (..., out), or a tuple of blocks of them along the output axis (:func:`output_gradients`).
     Only the kernels whose matmul ran (recorded an input) appear. matmul_dtype: operand precision of these
     products (float32 accumulation either way)."""
-    low = networks.MATMUL_DTYPES[matmul_dtype]
+    low = MATMUL_DTYPES[matmul_dtype]
 
     def gradient(kernel, x, dy):
         parts = x if isinstance(x, tuple) else (x,)  # an input recorded as parts: one block of rows each
@@ -78,9 +79,9 @@ def kernel_gradients(generators: dict, inputs: dict, output_grads: dict, matmul_
 def output_gradients(inputs: dict, grads: dict, taped: bool) -> dict:
     """The output gradient of every recorded kernel matmul, a tree like ``inputs`` (one entry per kernel).
 
-    taped False: grads are the probes' gradients (a kernel of ``networks.SHARED_PROBES`` takes its partner's);
-    True: grads are the output tape's cotangents (``stitchjax.tape``), and a kernel's output gradient is the
-    tuple of its module's ``networks.KERNEL_OUTPUT_TAPES`` entries, blocks along the output axis.
+    taped False: grads are the probes' gradients (a kernel of ``probes.SHARED_PROBES`` takes its partner's);
+    True: grads are the output tape's cotangents (``stitchjax.accel.tape``), and a kernel's output gradient is the
+    tuple of its module's ``probes.KERNEL_OUTPUT_TAPES`` entries, blocks along the output axis.
     """
     def walk(recorded, module_grads):
         out = {}
@@ -88,9 +89,9 @@ def output_gradients(inputs: dict, grads: dict, taped: bool) -> dict:
             if isinstance(value, Mapping):
                 out[name] = walk(value, module_grads[name])
             elif taped:
-                out[name] = tuple(module_grads[t] for t in networks.KERNEL_OUTPUT_TAPES[name])
+                out[name] = tuple(module_grads[t] for t in KERNEL_OUTPUT_TAPES[name])
             else:
-                out[name] = module_grads[networks.SHARED_PROBES.get(name, name)]
+                out[name] = module_grads[SHARED_PROBES.get(name, name)]
         return out
 
     return {name: walk(recorded, grads[name]) for name, recorded in inputs.items() if recorded}
@@ -110,7 +111,7 @@ def gradients_after_scan(run, leading: tuple, matmul_dtype: str = "float32", tap
     run(generators, inputs, constants, probes=None, tape=None) -> output when neither is given; with probes
     alone -> (output, {"inputs": recorded matmul inputs {"forward", "backward"}}); with tape="record" ->
     (output, {"inputs": ..., tape.TAPE: ..., tape.OUTPUT_TAPE: ...}) and with such a recorded tape (its two
-    tape collections) -> output, replaying it (``stitchjax.tape``). leading: the probes' leading shape (the
+    tape collections) -> output, replaying it (``stitchjax.accel.tape``). leading: the probes' leading shape (the
     rollout's: (scan steps, batch), the order its recorded values come out in).
     inputs: a pytree differentiated as usual; constants: a pytree of non-differentiable arrays (keys,
     integer lengths). Returns f(generators, inputs, constants) with run's value and the same gradients as
@@ -118,7 +119,7 @@ def gradients_after_scan(run, leading: tuple, matmul_dtype: str = "float32", tap
 
     taped (``train.scan_remat="taped"``): the forward pass runs the scan twice, first undifferentiated,
     recording every matmul input and taped value once, then differentiated, replaying the tape; the output
-    gradients come back as the output tape's cotangents instead of through zero probes (``stitchjax.tape``).
+    gradients come back as the output tape's cotangents instead of through zero probes (``stitchjax.accel.tape``).
     """
     @jax.custom_vjp
     def f(generators, inputs, constants):

@@ -2,7 +2,7 @@
 backward pass, once.
 
 Differentiating a ``lax.scan`` stacks, per step, every intermediate the backward pass needs, and the
-after-scan kernel gradients (``scan_gradients``) stack every matmul input beside them: an activation that
+after-scan kernel gradients (``accel.scan_gradients``) stack every matmul input beside them: an activation that
 feeds the next matmul is stacked twice, and the zero probes that carry the output gradients are a third
 array per matmul. Taped, the rollout runs twice instead:
 
