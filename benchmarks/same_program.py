@@ -2,6 +2,7 @@
 
     git worktree add /tmp/before <commit>
     python benchmarks/same_program.py --other /tmp/before            # this checkout against /tmp/before
+    python benchmarks/same_program.py --other /tmp/before train.scan_remat=taped   # with config overrides
 
 Compiles, in each checkout (one subprocess each), the lafan1_cpu train step at the full 52-frame window and
 the sampler of 64 samples x 50 frames, and compares XLA's optimised HLO after removing what only names the
@@ -30,7 +31,7 @@ if os.path.exists(os.path.join(sys.argv[1], "stitchjax", "trained_model.py")):
     from stitchjax.trained_model import random_model
 else:  # checkouts from before the model-loading module (not found by import: an editable install elsewhere
     random_model = inbetween.random_model  # may still resolve the name)
-cfg = C.load_config(sys.argv[1] + "/configs/lafan1_cpu.py")
+cfg = C.apply_overrides(C.load_config(sys.argv[1] + "/configs/lafan1_cpu.py"), sys.argv[4:])
 mesh = parallel.make_mesh()
 update = train.make_train_step(cfg, mesh, 52).update
 B, T, J = 32, 52, 22
@@ -61,10 +62,10 @@ def normalised(text: str, function_names: tuple) -> list:
     return sorted(lines)
 
 
-def dump(checkout: pathlib.Path, folder: pathlib.Path, tag: str) -> tuple:
+def dump(checkout: pathlib.Path, folder: pathlib.Path, tag: str, overrides: tuple = ()) -> tuple:
     paths = (folder / f"{tag}_step.txt", folder / f"{tag}_sampler.txt")
-    proc = subprocess.run([sys.executable, "-c", _DUMP, str(checkout), *map(str, paths)], capture_output=True,
-                          text=True)
+    proc = subprocess.run([sys.executable, "-c", _DUMP, str(checkout), *map(str, paths), *overrides],
+                          capture_output=True, text=True)
     if proc.returncode != 0:
         raise SystemExit(f"same_program: error: compiling in {checkout} failed: {proc.stderr.strip()[-600:]}")
     return tuple(p.read_text() for p in paths)
@@ -76,6 +77,8 @@ def main(argv=None) -> int:
     parser.add_argument("--other", required=True, help="the other checkout (e.g. a git worktree of the old commit)")
     parser.add_argument("--names", default="generator_loss,generator_rollouts",
                         help="Python function names that may differ between the checkouts (comma separated)")
+    parser.add_argument("overrides", nargs="*",
+                        help="config overrides on lafan1_cpu for both checkouts, e.g. train.scan_remat=taped")
     args = parser.parse_args(argv)
     other = pathlib.Path(args.other).resolve()
     if not (other / "stitchjax").is_dir():
@@ -84,7 +87,8 @@ def main(argv=None) -> int:
 
     names = tuple(n for n in args.names.split(",") if n)
     with tempfile.TemporaryDirectory() as tmp:
-        ours, theirs = dump(REPO, pathlib.Path(tmp), "this"), dump(other, pathlib.Path(tmp), "other")
+        ours = dump(REPO, pathlib.Path(tmp), "this", tuple(args.overrides))
+        theirs = dump(other, pathlib.Path(tmp), "other", tuple(args.overrides))
     same = True
     for program, a, b in zip(("train step (lafan1_cpu, window 52, batch 32)", "sampler (64 x 50 frames)"),
                              ours, theirs):

@@ -1,6 +1,6 @@
 """Networks (flax.linen, pure init/apply): the S-CVAE generator and the LSGAN discriminators.
 
-Size (~440 lines): one job, the paper's networks; the generator's parts (encoders, posterior, prior heads,
+Size (~420 lines): one job, the paper's networks; the generator's parts (encoders, posterior, prior heads,
 latent interpolation, gated experts) each stay a small named module here so one file shows the whole step.
 
 Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step::
@@ -17,12 +17,10 @@ Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step:
 The expert blend mixes each layer's expert *outputs* (``einsum`` over the expert axis), never a blended
 weight matrix per example.
 
-Every generator matmul goes through :func:`kernel_matmul`, so the rollout can take the weight gradients out
-of its scan (``train.weight_gradients_after_scan``, see ``rollout.py``): under a ``"probes"`` variable
-collection each product ``x @ W`` gets a zero probe added and records its input ``x``; the probe's
-gradient is the product's output gradient, and ``dW = sum over steps of x^T dy`` becomes one large matmul.
-``model.matmul_dtype`` sets the precision of those matmuls' operands (``accel.matmul``). Every nonlinearity of
-the step is a tape point (``stitchjax.accel.tape``), so ``train.scan_remat="taped"`` can record it once and replay it.
+The layers are plain flax modules (``Dense``, ``LSTMCell``, ``MoEDense``; ``model.matmul_dtype`` sets their
+matmuls' operand precision, ``accel.matmul``). The generator takes its layer classes as module attributes
+(``dense``, ``lstm_cell``, ``moe_dense``), as flax's ResNet takes ``conv``: the training step's fast paths swap
+in layers with the same parameters that also probe and tape (``stitchjax.accel``).
 
 Discriminators (RMIB style): a temporal convolution whose kernel spans the whole window (2 or 10 frames)
 over per-frame features, then dense layers; one score per window position.
@@ -34,22 +32,21 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from typing import Any
 
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
 from stitchjax import features
-from stitchjax.accel import tape
-from stitchjax.accel.matmul import elu
-from stitchjax.accel.probes import LSTM_GATES, input_size, kernel_matmul
+from stitchjax.accel.matmul import elu, matmul
 from stitchjax.config import CHOICES
 
 __all__ = [
     "Dense", "LSTMCell", "MLP", "MoEDense", "GeneratorSpec", "generator_spec", "DiscriminatorSpec",
-    "discriminator_spec", "ModelSpec", "model_spec", "Generator",
-    "Posterior", "LatentMLP", "decode", "sample_latent", "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry", "blend_gaussians",
-    "disc_feature_dim", "phase_dim", "generator_input_dims",
+    "discriminator_spec", "ModelSpec", "model_spec", "Generator", "Posterior", "LatentMLP", "decode",
+    "sample_latent", "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry",
+    "blend_gaussians", "disc_feature_dim", "phase_dim", "generator_input_dims",
 ]
 
 _ACTIVATION_FUNCTIONS = {"elu": elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
@@ -58,22 +55,23 @@ _ACTIVATION_FUNCTIONS = {"elu": elu, "relu": nn.relu, "gelu": nn.gelu, "silu": n
 _ACTIVATIONS = {name: _ACTIVATION_FUNCTIONS[name] for name in CHOICES[("model", "activation")]}
 
 
-def activation_fn(name: str):
-    try:
-        return _ACTIVATIONS[name]
-    except KeyError:
-        raise ValueError(f"unknown activation {name!r}; use one of {', '.join(_ACTIVATIONS)}") from None
-
-
 # What a layer may apply to its matmul output: the activations, and the identity / softmax of output layers.
-_LAYER_FUNCTIONS = {**_ACTIVATIONS, "identity": lambda y: y, "softmax": lambda y: jax.nn.softmax(y, axis=-1)}
+LAYER_FUNCTIONS = {**_ACTIVATIONS, "identity": lambda y: y, "softmax": lambda y: jax.nn.softmax(y, axis=-1)}
+
+ModuleDef = Any  # a flax module class (or a functools.partial of one)
+
+
+def _joined(x):
+    """A layer input given as a tuple of parts (..., in_i) joined along the last axis; x itself otherwise."""
+    return jnp.concatenate(x, axis=-1) if isinstance(x, (tuple, list)) else x
+
 
 class Dense(nn.Module):
     """Dense layer x (..., in) -> activation(x @ kernel + bias) (..., features), flax ``nn.Dense``
-    initialisation and parameter names; x may be a tuple of parts (:func:`kernel_matmul`).
+    initialisation and parameter names; x may be a tuple of parts, joined along the last axis.
 
-    activation: a ``model.activation`` name, "identity" or "softmax" (over the features); taped as the
-    output-tape point "output" (``stitchjax.accel.tape``).
+    activation: a ``model.activation`` name, "identity" or "softmax" (over the features);
+    matmul_dtype: the operands' precision (``accel.matmul.matmul``).
     """
 
     features: int
@@ -82,13 +80,13 @@ class Dense(nn.Module):
 
     @nn.compact
     def __call__(self, x):
-        kernel = self.param("kernel", nn.initializers.lecun_normal(), (input_size(x), self.features))
+        x = _joined(x)
+        kernel = self.param("kernel", nn.initializers.lecun_normal(), (x.shape[-1], self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.features,))
-        y = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype) + bias
-        return tape.tape_point(self, "output", self.activation, y, _LAYER_FUNCTIONS[self.activation], True)
+        return LAYER_FUNCTIONS[self.activation](matmul(x, kernel, self.matmul_dtype) + bias)
 
 
-def _orthogonal_blocks(key, shape, dtype=jnp.float32):
+def orthogonal_blocks(key, shape, dtype=jnp.float32):
     """(H, n * H) kernel made of n independent orthogonal (H, H) blocks (one per LSTM gate)."""
     rows, cols = shape
     keys = jax.random.split(key, cols // rows)
@@ -98,7 +96,7 @@ def _orthogonal_blocks(key, shape, dtype=jnp.float32):
 class LSTMCell(nn.Module):
     """LSTM cell with fused gate kernels: carry (c, h) each (..., H), x (..., in) -> (carry, h).
 
-    x may be a tuple of parts (:func:`kernel_matmul`).
+    x may be a tuple of parts, joined along the last axis.
     gates = x @ input_kernel (in, 4H) + h @ hidden_kernel (H, 4H) + bias (4H), gate order i, f, g, o;
     c' = sigmoid(f) c + sigmoid(i) tanh(g), h' = sigmoid(o) tanh(c'). Initialisation as flax's LSTM
     cells (LeCun normal input kernel, orthogonal hidden kernel per gate, zero bias). Two matmuls per
@@ -111,17 +109,16 @@ class LSTMCell(nn.Module):
     @nn.compact
     def __call__(self, carry, x):
         c, h = carry
+        x = _joined(x)
         hidden = self.features
-        input_kernel = self.param("input_kernel", nn.initializers.lecun_normal(), (input_size(x), 4 * hidden))
-        hidden_kernel = self.param("hidden_kernel", _orthogonal_blocks, (hidden, 4 * hidden))
+        input_kernel = self.param("input_kernel", nn.initializers.lecun_normal(), (x.shape[-1], 4 * hidden))
+        hidden_kernel = self.param("hidden_kernel", orthogonal_blocks, (hidden, 4 * hidden))
         bias = self.param("bias", nn.initializers.zeros, (4 * hidden,))
-        gates = (kernel_matmul(self, x, input_kernel, "input_kernel", self.matmul_dtype)
-                 + kernel_matmul(self, h, hidden_kernel, "hidden_kernel", self.matmul_dtype) + bias)
-        i, f, g, o = (tape.tape_point(self, name, kind, gate, fn, True) for name, kind, fn, gate in zip(
-            LSTM_GATES, ("sigmoid", "sigmoid", "tanh", "sigmoid"),
-            (jax.nn.sigmoid, jax.nn.sigmoid, jnp.tanh, jax.nn.sigmoid), jnp.split(gates, 4, axis=-1)))
+        gates = matmul(x, input_kernel, self.matmul_dtype) + matmul(h, hidden_kernel, self.matmul_dtype) + bias
+        i, f, g, o = (fn(gate) for fn, gate in zip((jax.nn.sigmoid, jax.nn.sigmoid, jnp.tanh, jax.nn.sigmoid),
+                                                  jnp.split(gates, 4, axis=-1)))
         c = f * c + i * g
-        h = o * tape.tape_point(self, "cell_tanh", "tanh", c, jnp.tanh)
+        h = o * jnp.tanh(c)
         return (c, h), h
 
 
@@ -134,41 +131,46 @@ class MLP(nn.Module):
     activate_last: bool = True
     matmul_dtype: str = "float32"
     last_activation: str = "identity"  # the last layer's, without activate_last ("softmax": gating)
+    dense: ModuleDef = Dense
 
     @nn.compact
     def __call__(self, x):
         for i, width in enumerate(self.widths):
             last = i == len(self.widths) - 1
             activation = self.last_activation if last and not self.activate_last else self.activation
-            x = Dense(width, self.matmul_dtype, activation, name=f"dense_{i}")(x)
+            x = self.dense(width, self.matmul_dtype, activation, name=f"dense_{i}")(x)
         return x
 
 
-class MoEDense(nn.Module):
-    """Dense layer of E experts blended by per-example coefficients.
+# The experts' kernels (in, E, out): LeCun normal per expert (fan in = in).
+expert_init = nn.initializers.variance_scaling(1.0, "fan_in", "truncated_normal", in_axis=0, out_axis=-1,
+                                               batch_axis=(1,))
 
-    x (..., in), coefficients (..., E) -> (..., out) = sum_e c_e (x @ W_e + b_e). The kernel is stored as
-    (in, E, out), so all experts' outputs come from one plain 2-D matmul x @ kernel.reshape(in, E*out)
+
+class MoEDense(nn.Module):
+    """Dense layer of E experts blended by per-example coefficients, then ``activation``.
+
+    x (..., in), coefficients (..., E) -> (..., out) = activation(sum_e c_e (x @ W_e + b_e)). The kernel is
+    stored as (in, E, out), so all experts' outputs come from one plain 2-D matmul x @ kernel.reshape(in, E*out)
     followed by the weighted sum over experts. That equals using the blended weights sum_e c_e W_e, never
     materialises a per-example weight matrix, and (unlike a 3-D einsum) leaves XLA no weight-sized
     transposes to do inside the rollout's scan: the train step is ~16-24% faster on a CPU.
+    x may be a tuple of parts, joined along the last axis.
     """
 
     features: int
     num_experts: int
     matmul_dtype: str = "float32"
+    activation: str = "identity"
 
     @nn.compact
     def __call__(self, x, coefficients):
-        init = nn.initializers.variance_scaling(1.0, "fan_in", "truncated_normal", in_axis=0, out_axis=-1,
-                                                batch_axis=(1,))
-        kernel = self.param("kernel", init, (input_size(x), self.num_experts, self.features))
+        x = _joined(x)
+        kernel = self.param("kernel", expert_init, (x.shape[-1], self.num_experts, self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.num_experts, self.features))
-        flat = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype)
+        flat = matmul(x, kernel.reshape(kernel.shape[0], -1), self.matmul_dtype)
         expert_outputs = flat.reshape(flat.shape[:-1] + (self.num_experts, self.features)) + bias
-        expert_outputs = tape.tape_point(self, "output", "identity", expert_outputs, _LAYER_FUNCTIONS["identity"],
-                                         True)
-        return jnp.einsum("...e,...eo->...o", coefficients, expert_outputs)
+        return LAYER_FUNCTIONS[self.activation](jnp.einsum("...e,...eo->...o", coefficients, expert_outputs))
 
 
 def blend_gaussians(mu, logvar, mu_t, logvar_t, gamma, mode: str = "std"):
@@ -235,9 +237,16 @@ def generator_spec(config) -> GeneratorSpec:
 
 
 class Generator(nn.Module):
-    """One S-CVAE step. See the module docstring; ``spec``: :class:`GeneratorSpec` (static, hashable)."""
+    """One S-CVAE step. See the module docstring; ``spec``: :class:`GeneratorSpec` (static, hashable).
+
+    dense, lstm_cell, moe_dense: the layer classes (flax ``ModuleDef``s with the signatures of :class:`Dense`,
+    :class:`LSTMCell`, :class:`MoEDense`); other classes with the same parameters may stand in for them.
+    """
 
     spec: GeneratorSpec
+    dense: ModuleDef = Dense
+    lstm_cell: ModuleDef = LSTMCell
+    moe_dense: ModuleDef = MoEDense
 
     @nn.compact
     def __call__(self, carry, state, target, offset, gamma, phase, eps, next_state=None, use_prior=None):
@@ -264,12 +273,13 @@ class Generator(nn.Module):
         m = self.spec
         latent = m.latent_dim
         dt = m.matmul_dtype
-        e_state = MLP(tuple(m.encoder_widths), m.activation, matmul_dtype=dt, name="state_encoder")(state)
-        e_offset = MLP(tuple(m.encoder_widths), m.activation, matmul_dtype=dt, name="offset_encoder")(offset)
-        e_target = MLP(tuple(m.encoder_widths), m.activation, matmul_dtype=dt, name="target_encoder")(target)
-        carry, h = LSTMCell(m.lstm_size, dt, name="lstm")(carry, (e_state, e_offset, e_target))
-        current_head = Dense(2 * latent, dt, name="current_head")(h)
-        target_head = Dense(2 * latent, dt, name="target_head")(h)
+        encoder = functools.partial(MLP, tuple(m.encoder_widths), m.activation, matmul_dtype=dt, dense=self.dense)
+        e_state = encoder(name="state_encoder")(state)
+        e_offset = encoder(name="offset_encoder")(offset)
+        e_target = encoder(name="target_encoder")(target)
+        carry, h = self.lstm_cell(m.lstm_size, dt, name="lstm")(carry, (e_state, e_offset, e_target))
+        current_head = self.dense(2 * latent, dt, name="current_head")(h)
+        target_head = self.dense(2 * latent, dt, name="target_head")(h)
         mu, logvar = current_head[..., :latent], current_head[..., latent:]
         mu_t, logvar_t = target_head[..., :latent], target_head[..., latent:]
         if m.latent_interpolation:
@@ -277,8 +287,8 @@ class Generator(nn.Module):
         else:
             mu_b, logvar_b = mu, logvar
         if m.posterior == "next_frame" and next_state is not None:
-            mu_q, logvar_q = Posterior(latent, m.encoder_widths[-1], m.activation, dt, name="posterior")(
-                h, state, next_state)
+            mu_q, logvar_q = Posterior(latent, m.encoder_widths[-1], m.activation, dt, self.dense,
+                                       name="posterior")(h, state, next_state)
         else:
             mu_q, logvar_q = mu_b, logvar_b
         z = sample_latent(mu_q, logvar_q, eps)
@@ -287,7 +297,7 @@ class Generator(nn.Module):
 
         y = (z, state, target) + ((h,) if m.decoder_uses_lstm else ())
         num_out = 3 + m.num_joints * 4 + m.num_contacts
-        y = decode(self, y, z, phase, m, num_out)
+        y = decode(y, z, phase, m, num_out, self.dense, self.moe_dense)
         n = m.num_joints * 4
         outputs = {
             "velocity": y[..., :3], "rotation_update": y[..., 3:3 + n], "contact_logits": y[..., 3 + n:],
@@ -308,16 +318,18 @@ class Posterior(nn.Module):
     width: int
     activation: str = "elu"
     matmul_dtype: str = "float32"
+    dense: ModuleDef = Dense
 
     @nn.compact
     def __call__(self, h, state, next_state):
-        x = Dense(self.width, self.matmul_dtype, self.activation, name="hidden")((h, next_state, next_state - state))
-        out = Dense(2 * self.latent_dim, self.matmul_dtype, name="head")(x)
+        x = self.dense(self.width, self.matmul_dtype, self.activation, name="hidden")(
+            (h, next_state, next_state - state))
+        out = self.dense(2 * self.latent_dim, self.matmul_dtype, name="head")(x)
         return out[..., :self.latent_dim], out[..., self.latent_dim:]
 
 
-def decode(module: nn.Module, y, z, phase, model_config, num_out: int):
-    """The decoder, called inside :class:`Generator` (``module``, which holds its activations' tape points):
+def decode(y, z, phase, model_config, num_out: int, dense: ModuleDef = Dense, moe_dense: ModuleDef = MoEDense):
+    """The decoder, called inside :class:`Generator` (with its layer classes ``dense`` and ``moe_dense``):
     y (in,) or a tuple of parts -> (num_out,).
 
     Phase modulation: a mixture of E experts per layer (``expert_0``, ...) whose coefficients come from the
@@ -330,16 +342,14 @@ def decode(module: nn.Module, y, z, phase, model_config, num_out: int):
     widths = tuple(m.decoder_widths) + (num_out,)
     dt = m.matmul_dtype
     if not m.phase_modulation:
-        return LatentMLP(widths, m.activation, m.z_every_layer, dt, name="decoder")(y, z)
+        return LatentMLP(widths, m.activation, m.z_every_layer, dt, dense, name="decoder")(y, z)
     coefficients = MLP(tuple(m.gating_widths) + (m.num_experts,), m.activation, activate_last=False,
-                       matmul_dtype=dt, last_activation="softmax", name="gating")(phase)
-    act = activation_fn(m.activation)
+                       matmul_dtype=dt, last_activation="softmax", dense=dense, name="gating")(phase)
     for i, width in enumerate(widths):
         if i > 0 and m.z_every_layer:
             y = (y, z)
-        y = MoEDense(width, m.num_experts, dt, name=f"expert_{i}")(y, coefficients)
-        if i < len(widths) - 1:
-            y = tape.tape_point(module, f"decoder_activation_{i}", m.activation, y, act)
+        activation = m.activation if i < len(widths) - 1 else "identity"
+        y = moe_dense(width, m.num_experts, dt, activation, name=f"expert_{i}")(y, coefficients)
     return y
 
 
@@ -351,6 +361,7 @@ class LatentMLP(nn.Module):
     activation: str = "elu"
     z_every_layer: bool = True
     matmul_dtype: str = "float32"
+    dense: ModuleDef = Dense
 
     @nn.compact
     def __call__(self, y, z):
@@ -358,7 +369,7 @@ class LatentMLP(nn.Module):
             if i > 0 and self.z_every_layer:
                 y = (y, z)
             activation = self.activation if i < len(self.widths) - 1 else "identity"
-            y = Dense(width, self.matmul_dtype, activation, name=f"dense_{i}")(y)
+            y = self.dense(width, self.matmul_dtype, activation, name=f"dense_{i}")(y)
         return y
 
 

@@ -52,6 +52,7 @@ from stitchjax import networks
 from stitchjax import phase as phase_lib
 from stitchjax import rotations as R
 from stitchjax import skeleton as skel
+from stitchjax.accel import probes as probes_lib
 from stitchjax.accel import scan_gradients
 from stitchjax.accel import tape as tape_lib
 from stitchjax.config import CHOICES
@@ -171,7 +172,8 @@ def _step(params, phase_params, spec, carry, current, target, distance, gamma, e
     if spec.generator.time_to_target_input:
         offset = jnp.concatenate([offset, (distance / spec.fps)[None].astype(offset.dtype)])
     phase = _phase(spec, phase_params, state)
-    generator = networks.make_generator(spec.generator)
+    fast = probes is not None or tape is not None or bool(record)  # the probed layers (stitchjax.accel.probes)
+    generator = (probes_lib.probed_generator if fast else networks.make_generator)(spec.generator)
     args = (carry, state, target_state, offset, gamma, phase, eps, next_state, use_prior)
     variables = {**params, **({} if probes is None else {"probes": probes}), **(tape or {})}
     if record:

@@ -7,6 +7,7 @@ import pytest
 from stitchjax import config as C
 from stitchjax import networks as N
 from stitchjax.accel import matmul as accel_matmul
+from stitchjax.accel import probes
 from stitchjax.accel.matmul import elu
 from stitchjax.accel import tape
 
@@ -114,7 +115,7 @@ def test_lstm_cell_matches_the_lstm_equations():
 
 
 def test_kernel_matmul_probe_gradient_is_the_output_gradient():
-    layer = N.Dense(features=4)
+    layer = probes.ProbedDense(features=4)
     x = jax.random.normal(jax.random.PRNGKey(1), (6, 3))
     params = layer.init(jax.random.PRNGKey(0), x)
 
@@ -137,7 +138,7 @@ def test_tape_point_records_then_replays_with_the_derivative_and_the_output_grad
     """A Dense layer's output tape point: recording stores elu(x W + b); replaying returns the taped value
     (whatever x is), differentiates as elu would at the recorded point, and hands the pre-activation's
     gradient back as the tape's cotangent (the kernel's output gradient dy)."""
-    layer = N.Dense(features=4, activation="elu")
+    layer = probes.ProbedDense(features=4, activation="elu")
     x = jax.random.normal(jax.random.PRNGKey(1), (6, 3))
     params = layer.init(jax.random.PRNGKey(0), x)
     assert set(params) == {"params"}  # initialising records nothing
@@ -233,3 +234,23 @@ def test_elu_has_flax_values_and_gradients_formed_from_its_output():
     np.testing.assert_allclose(slopes, np.where(np.asarray(x) > 0, 1.0, np.exp(np.asarray(x))), rtol=1e-6,
                                atol=1e-7)  # y + 1 for y near -1: absolute rounding of float32
     np.testing.assert_allclose(jax.jvp(elu, (x,), (jnp.ones_like(x),))[1], slopes, rtol=1e-6)  # forward mode
+
+
+@pytest.mark.parametrize("extra", [(), ("model.phase_modulation=false",), ("model.matmul_dtype=bfloat16",)])
+def test_probed_generator_has_the_plain_generators_parameters_and_values(extra):
+    """The training step's probed layers (stitchjax.accel.probes) change nothing a reader of the model sees:
+    the same parameter tree from the same key, and bit-identical outputs without probes or tape."""
+    spec = N.generator_spec(tiny_config(*extra))
+    dims = N.generator_input_dims(spec)
+    args = (N.initial_carry(spec),) + tuple(
+        jax.random.normal(jax.random.PRNGKey(i), (dims[k],)) for i, k in enumerate(("state", "target", "offset")))
+    args += (jnp.float32(0.3), jnp.ones((dims["phase"],)), jnp.ones((dims["eps"],)), args[1] * 0.5)
+    plain, probed = N.make_generator(spec), probes.probed_generator(spec)
+    params = plain.init(jax.random.PRNGKey(0), *args)
+    probed_params = probed.init(jax.random.PRNGKey(0), *args)
+    assert jax.tree.structure(params) == jax.tree.structure(probed_params)
+    for a, b in zip(jax.tree.leaves(params), jax.tree.leaves(probed_params)):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip(jax.tree.leaves(jax.jit(plain.apply)(params, *args)),
+                    jax.tree.leaves(jax.jit(probed.apply)(params, *args))):
+        np.testing.assert_array_equal(a, b)

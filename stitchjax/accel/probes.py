@@ -1,6 +1,9 @@
-"""``kernel_matmul``: the generator's products ``x @ W`` with zero probes and recorded inputs, the hooks of the
-after-scan weight gradients (:mod:`stitchjax.accel.scan_gradients`) and of the taped replay
-(:mod:`stitchjax.accel.tape`).
+"""The generator's layers with probes and tape points: the hooks of the after-scan weight gradients
+(:mod:`stitchjax.accel.scan_gradients`) and of the taped replay (:mod:`stitchjax.accel.tape`).
+
+``kernel_matmul`` is a product ``x @ W`` that can add a zero probe and record its input; ``ProbedDense``,
+``ProbedLSTMCell`` and ``ProbedMoEDense`` are ``networks``' plain layers (same parameters, same values) built on
+it, and :func:`probed_generator` the generator made of them, which the training step's rollout runs.
 """
 from __future__ import annotations
 
@@ -8,10 +11,12 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
+from stitchjax import networks
 from stitchjax.accel import tape
 from stitchjax.accel.matmul import matmul
 
-__all__ = ["SHARED_PROBES", "LSTM_GATES", "KERNEL_OUTPUT_TAPES", "kernel_matmul", "input_size"]
+__all__ = ["SHARED_PROBES", "LSTM_GATES", "KERNEL_OUTPUT_TAPES", "kernel_matmul", "input_size", "ProbedDense",
+           "ProbedLSTMCell", "ProbedMoEDense", "probed_generator"]
 
 # Kernels whose product is only ever summed with another kernel's product (the LSTM's gates): they share
 # that kernel's probe, whose gradient is the sum's output gradient, so the scan stacks it once.
@@ -58,3 +63,60 @@ def _parts(x) -> tuple:
 def input_size(x) -> int:
     """Last-axis size of a matmul input or of the concatenation of its parts (:func:`kernel_matmul`)."""
     return sum(part.shape[-1] for part in _parts(x))
+
+
+class ProbedDense(networks.Dense):
+    """:class:`networks.Dense` whose matmul is a :func:`kernel_matmul` and whose output (activation included)
+    is the output-tape point "output" (``stitchjax.accel.tape``)."""
+
+    @nn.compact
+    def __call__(self, x):
+        kernel = self.param("kernel", nn.initializers.lecun_normal(), (input_size(x), self.features))
+        bias = self.param("bias", nn.initializers.zeros, (self.features,))
+        y = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype) + bias
+        return tape.tape_point(self, "output", self.activation, y, networks.LAYER_FUNCTIONS[self.activation], True)
+
+
+class ProbedLSTMCell(networks.LSTMCell):
+    """:class:`networks.LSTMCell` with :func:`kernel_matmul` products; each gate's nonlinearity is an
+    output-tape point (``LSTM_GATES``) and the cell's tanh a tape point "cell_tanh"."""
+
+    @nn.compact
+    def __call__(self, carry, x):
+        c, h = carry
+        hidden = self.features
+        input_kernel = self.param("input_kernel", nn.initializers.lecun_normal(), (input_size(x), 4 * hidden))
+        hidden_kernel = self.param("hidden_kernel", networks.orthogonal_blocks, (hidden, 4 * hidden))
+        bias = self.param("bias", nn.initializers.zeros, (4 * hidden,))
+        gates = (kernel_matmul(self, x, input_kernel, "input_kernel", self.matmul_dtype)
+                 + kernel_matmul(self, h, hidden_kernel, "hidden_kernel", self.matmul_dtype) + bias)
+        i, f, g, o = (tape.tape_point(self, name, kind, gate, fn, True) for name, kind, fn, gate in zip(
+            LSTM_GATES, ("sigmoid", "sigmoid", "tanh", "sigmoid"),
+            (jax.nn.sigmoid, jax.nn.sigmoid, jnp.tanh, jax.nn.sigmoid), jnp.split(gates, 4, axis=-1)))
+        c = f * c + i * g
+        h = o * tape.tape_point(self, "cell_tanh", "tanh", c, jnp.tanh)
+        return (c, h), h
+
+
+class ProbedMoEDense(networks.MoEDense):
+    """:class:`networks.MoEDense` with a :func:`kernel_matmul` product; the experts' outputs are the
+    output-tape point "output" and the activation after the blend (if any) the tape point "activation"."""
+
+    @nn.compact
+    def __call__(self, x, coefficients):
+        kernel = self.param("kernel", networks.expert_init, (input_size(x), self.num_experts, self.features))
+        bias = self.param("bias", nn.initializers.zeros, (self.num_experts, self.features))
+        flat = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype)
+        expert_outputs = flat.reshape(flat.shape[:-1] + (self.num_experts, self.features)) + bias
+        expert_outputs = tape.tape_point(self, "output", "identity", expert_outputs,
+                                         networks.LAYER_FUNCTIONS["identity"], True)
+        y = jnp.einsum("...e,...eo->...o", coefficients, expert_outputs)
+        if self.activation == "identity":
+            return y
+        return tape.tape_point(self, "activation", self.activation, y, networks.LAYER_FUNCTIONS[self.activation])
+
+
+def probed_generator(spec) -> networks.Generator:
+    """The generator of a ``networks.GeneratorSpec`` built from the probed layers: the same parameters and
+    values as ``networks.make_generator(spec)``, plus the probes, recorded inputs and tape points."""
+    return networks.Generator(spec, dense=ProbedDense, lstm_cell=ProbedLSTMCell, moe_dense=ProbedMoEDense)
