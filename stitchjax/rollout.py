@@ -58,7 +58,7 @@ from stitchjax.accel import tape as tape_lib
 from stitchjax.config import CHOICES
 
 __all__ = ["RolloutSpec", "rollout_spec", "rollout", "rollout_batch", "keyframes_from_batch", "num_steps",
-           "schedule", "interpolation_weight", "aligning_step", "stitch", "keyframe_velocity", "keyframe_states", "direction_frames",
+           "schedule", "interpolation_weight", "StepHook", "aligning_step", "stitch", "keyframe_velocity", "keyframe_states", "direction_frames",
            "next_frame_states", "correlated_noise", "prior_sample_flags", "GAUSSIAN_KEYS"]
 
 _ACTIVATION_NAMES = CHOICES[("model", "activation")]
@@ -150,17 +150,42 @@ def _phase(spec, phase_params, state):
     return phase_lib.phase_features(phase_params, state)
 
 
-def _step(params, phase_params, spec, carry, current, target, distance, gamma, eps, probes=None,
-          next_state=None, use_prior=None, tape=None, record=()):
+class StepHook:
+    """The rollout's hook for per-step extras of its generator steps (``rollout(..., hook=...)``); this one adds
+    none. A hook may feed each step more inputs and take more out of it (the training step's fast paths do:
+    ``accel.probes.RecordingHook``).
+
+    scan_inputs(truth): the pytree the scan slices per step (leading num_steps axis), holding the posterior
+    inputs ``truth`` (or None); truth(xs_i): a step's posterior inputs from its slice; apply(generator spec,
+    name, params, args, xs_i) -> ((carry, outputs), extras or None): generator ``name``'s step;
+    stack(records): what the scan stacks of a step's {generator: extras}; finish(stacked): what rollout returns
+    beside its result (None: the result alone).
+    """
+
+    def scan_inputs(self, truth):
+        return truth
+
+    def truth(self, xs_i):
+        return xs_i
+
+    def apply(self, spec, name, params, args, xs_i):
+        return networks.make_generator(spec).apply(params, *args), None
+
+    def stack(self, records):
+        return records
+
+    def finish(self, stacked):
+        return None
+
+
+def _step(params, phase_params, spec, carry, current, target, distance, gamma, eps, next_state=None,
+          use_prior=None, apply=None):
     """One generator step: frame dicts (rotations (J,4), root (3,), velocity (3,), contacts (C,)).
 
     next_state: (S,) ground-truth state of the frame this step makes (posterior training) or None (prior);
     use_prior: None or () bool, True = z from the prior even with next_state (``Generator``).
-
-    probes: None, or this step's zero probes for the generator's kernels (``scan_gradients.zero_probes``);
-    tape: None, or this step's taped values to replay, {tape collection: tree} (``stitchjax.accel.tape``);
-    record: the collections to record, () or some of ("inputs", "tape", "output_tape"); then the fourth
-    output is {collection: tree} (else None).
+    apply: None (the plain generator), or apply(params, args) -> ((carry, outputs), extras), a hook's
+    (:class:`StepHook`); the fourth output is the extras (None without a hook).
     """
     contacts, target_contacts = current["contacts"], target["contacts"]
     if not spec.contact_input_gradient:
@@ -172,16 +197,11 @@ def _step(params, phase_params, spec, carry, current, target, distance, gamma, e
     if spec.generator.time_to_target_input:
         offset = jnp.concatenate([offset, (distance / spec.fps)[None].astype(offset.dtype)])
     phase = _phase(spec, phase_params, state)
-    fast = probes is not None or tape is not None or bool(record)  # the probed layers (stitchjax.accel.probes)
-    generator = (probes_lib.probed_generator if fast else networks.make_generator)(spec.generator)
     args = (carry, state, target_state, offset, gamma, phase, eps, next_state, use_prior)
-    variables = {**params, **({} if probes is None else {"probes": probes}), **(tape or {})}
-    if record:
-        (carry, out), recorded = generator.apply(variables, *args, mutable=list(record))
-        recorded = {name: recorded.get(name, {}) for name in record}
+    if apply is None:
+        (carry, out), recorded = networks.make_generator(spec.generator).apply(params, *args), None
     else:
-        carry, out = generator.apply(variables, *args)
-        recorded = None
+        (carry, out), recorded = apply(params, args)
     update = out["rotation_update"].reshape(current["rotations"].shape)
     velocity = out["velocity"]
     frame = {
@@ -210,8 +230,7 @@ def _stack_first(first, rest):
     return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b], axis=0), first, rest)
 
 
-def aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, probes_i=None, truth_i=None,
-                  tape_i=None, record=()):
+def aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, xs_i=None, hook=None):
     """One bidirectional aligning step (paper Eq. 2), the body of the rollout's scan.
 
     f_{i+1} = G_fwd(f_i | target = latest backward frame), then b_{i+1} = G_bwd(b_i | target = f_{i+1})
@@ -222,17 +241,15 @@ def aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, probes_
     carry: (forward LSTM carry, backward LSTM carry, latest forward frame, latest backward frame);
     i: () step index; eps_i: (2, latent) noise; plan: {"length", "n_forward", "n_backward", "start",
     "target"} (keyframes as frame dicts, :func:`keyframe_states`: the target in reversed time), optionally
-    "use_prior" (see :func:`rollout`); probes_i / truth_i / tape_i: this step's probes, posterior inputs
-    (forward, backward) and taped values or None; record: see :func:`_step`. Returns (carry, outputs) with
-    "forward" / "backward" frame dicts plus their Gaussians, and "records" ({generator: recorded trees},
-    empty unless recording).
+    "use_prior" (see :func:`rollout`); xs_i: this step's slice of the scan's per-step inputs (without a
+    hook: the posterior inputs (forward, backward) or None); hook: None or a :class:`StepHook`. Returns
+    (carry, outputs) with "forward" / "backward" frame dicts plus their Gaussians, and "records"
+    ({generator: the hook's extras}, empty without them).
     """
     m = spec
     dtype = plan["start"]["rotations"].dtype
     length = plan["length"]
-    probe = (lambda name: None) if probes_i is None else probes_i.get
-    taped = ((lambda name: None) if tape_i is None  # this generator's part of each tape collection
-             else (lambda name: {collection: t[name] for collection, t in tape_i.items() if name in t}))
+    truth_i = xs_i if hook is None else hook.truth(xs_i)
     truth_fwd, truth_bwd = (None, None) if truth_i is None else truth_i
     fwd_carry, bwd_carry, fwd, bwd = carry
     aligned = m.bidirectional and m.bidirectional_aligning
@@ -246,9 +263,10 @@ def aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, probes_
         """One step of one generator; it holds its frame once it has made plan["n_<name>"] frames."""
         count = plan[f"n_{name}"]
         gamma = interpolation_weight(spec, i + 1, count, length).astype(dtype)
+        apply = None if hook is None else (lambda params, args: hook.apply(spec.generator, name, params, args, xs_i))
         new_carry, new_frame, gaussians, recorded = _step(gen_params[name], phase_params, spec, carry_d, frame,
-                                                          target, distance, gamma, eps, probe(name), truth,
-                                                          plan.get("use_prior"), taped(name), record)
+                                                          target, distance, gamma, eps, truth,
+                                                          plan.get("use_prior"), apply)
         carry_d, frame = _hold(i < count, (new_carry, new_frame), (carry_d, frame))
         out[name] = {**frame, **gaussians}
         if recorded is not None:
@@ -294,8 +312,8 @@ def stitch(fwd_all, bwd_all, length, h, k, num_frames: int, bidirectional: bool 
 
 
 def rollout(gen_params, phase_params, start, target, offsets, key, spec, length, max_length: int, noise=None,
-            probes=None, ground_truth=None, noise_scale=1.0, noise_correlation=None, use_prior=None,
-            noise_ramp_steps: int = 0, tape=None):
+            ground_truth=None, noise_scale=1.0, noise_correlation=None, use_prior=None, noise_ramp_steps: int = 0,
+            hook=None):
     """Generate one transition.
 
     Args:
@@ -310,15 +328,6 @@ def rollout(gen_params, phase_params, start, target, offsets, key, spec, length,
       max_length: static maximum L (training: window - 2).
       noise: optional (num_steps(spec, max_length), 2, latent_dim) standard normal latent noise
         ([:, 0] forward, [:, 1] backward) used instead of drawing it from ``key`` (latent search).
-      probes: optional {"forward", "backward"} zero probes with a leading (num_steps,) axis
-        (``scan_gradients.zero_probes``); then (without tape) the result is (dict, {"inputs": inputs}),
-        inputs = the generators' kernel-matmul inputs per step, {"forward", "backward"} trees of
-        (num_steps, in) arrays (or tuples of the input's parts, ``accel.probes.kernel_matmul``).
-      tape: None; "record": the result is (dict, {"inputs": ..., "tape": ..., "output_tape": ...}), the
-        kernel-matmul inputs and the values the generator steps tape (``stitchjax.accel.tape``), each distinct
-        array recorded once; or {"tape": ..., "output_tape": ...} as recorded, to replay
-        (``train.scan_remat="taped"``: the steps' nonlinearities and matmuls are not recomputed, and their
-        derivatives come from the taped values).
       ground_truth: optional {"forward", "backward"} (num_steps, S) ground-truth states of the frames each
         step makes (:func:`next_frame_states`): z is drawn from the posterior (model.posterior must not be
         "none"). None: z from the prior; the ground truth is never read.
@@ -330,6 +339,8 @@ def rollout(gen_params, phase_params, start, target, offsets, key, spec, length,
         model's ``model.noise_correlation`` (what training uses).
       noise_ramp_steps: static int >= 0; each direction's noise rises linearly from 0 at its first step to
         full at this step (:func:`noise_ramp`); 0 = full noise from the first step, as in the paper.
+      hook: optional :class:`StepHook`, per-step extras of the generator steps; when its ``finish`` gives
+        something, the result is (dict, that).
     Returns dict (T_out = max_length + 2):
       "rotations" (T_out, J, 4), "root_positions" (T_out, 3), "contacts" (T_out, C),
       "global_positions" (T_out, J, 3): the stitched motion, frame 0 = start and frame L + 1 = target
@@ -359,15 +370,12 @@ def rollout(gen_params, phase_params, start, target, offsets, key, spec, length,
     if use_prior is not None:
         plan["use_prior"] = jnp.asarray(use_prior, bool)
 
-    record = _recorded_collections(probes, tape)
-    replay = None if tape is None or isinstance(tape, str) else tape
-    layout = {}
+    hook = StepHook() if hook is None else hook
 
     def body(carry, xs):
-        i, eps_i, probes_i, truth_i, tape_i = xs
-        carry, out = aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, probes_i, truth_i,
-                                   tape_i, record)
-        out["records"] = _unique_leaves(out["records"], layout)
+        i, eps_i, xs_i = xs
+        carry, out = aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, xs_i, hook)
+        out["records"] = hook.stack(out["records"])
         return carry, out
 
     policy = SCAN_REMAT[spec.scan_remat]
@@ -376,7 +384,7 @@ def rollout(gen_params, phase_params, start, target, offsets, key, spec, length,
 
     carry0 = networks.initial_carry(spec.generator, dtype)
     steps = jnp.arange(n, dtype=jnp.int32)
-    _, seq = jax.lax.scan(body, (carry0, carry0, start_frame, target_frame), (steps, eps, probes, truth, replay))
+    _, seq = jax.lax.scan(body, (carry0, carry0, start_frame, target_frame), (steps, eps, hook.scan_inputs(truth)))
 
     # Sequences including their keyframe at entry 0: fwd_all[t] = frame t, bwd_all[r] = frame L + 1 - r.
     fwd_all = _stack_first(start_frame, {key_: seq["forward"][key_] for key_ in _FRAME_KEYS})
@@ -387,35 +395,8 @@ def rollout(gen_params, phase_params, start, target, offsets, key, spec, length,
     stitched = _pin_keyframes({"rotations": rot, "root_positions": root, "contacts": contacts}, start, target,
                               length, t_out)
     result = _with_positions(stitched, fwd_all, bwd_all, seq, offsets, spec, length, (h, k, n_fwd, n_bwd))
-    if record:
-        records = jax.tree.unflatten(layout["treedef"], [seq["records"][j] for j in layout["where"]])
-        return result, {collection: {name: by_collection[collection] for name, by_collection in records.items()}
-                        for collection in record}
-    return result
-
-
-def _recorded_collections(probes, tape) -> tuple:
-    """The variable collections a rollout records (see :func:`rollout`'s ``probes`` and ``tape``): () when
-    it returns its result alone."""
-    if isinstance(tape, str) and tape != "record":
-        raise ValueError(f"tape={tape!r}: use None, 'record' or a recorded tape")
-    if tape == "record":
-        return ("inputs", tape_lib.TAPE, tape_lib.OUTPUT_TAPE)
-    return ("inputs",) if probes is not None and tape is None else ()
-
-
-def _unique_leaves(tree, layout: dict) -> list:
-    """The distinct arrays of ``tree`` (by identity: one value recorded under several names, e.g. an
-    activation that is also the next matmul's input, is stacked by the scan once); ``layout`` gets the
-    treedef and each leaf's index in the returned list, to rebuild the tree after the scan."""
-    leaves, layout["treedef"] = jax.tree.flatten(tree)
-    index, unique = {}, []
-    for leaf in leaves:
-        if id(leaf) not in index:
-            index[id(leaf)] = len(unique)
-            unique.append(leaf)
-    layout["where"] = [index[id(leaf)] for leaf in leaves]
-    return unique
+    extras = hook.finish(seq["records"])
+    return result if extras is None else (result, extras)
 
 
 _FRAME_KEYS = ("rotations", "root", "velocity", "contacts")
@@ -653,16 +634,18 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, spec, length, max_
     def run(generators, inputs, constants, probes=None, tape=None):
         phase_params, start, target, offsets, truth = inputs
         keys, length, use_prior = constants
-        record = isinstance(tape, str)  # "record" (_recorded_collections refuses any other string)
+        record = isinstance(tape, str)  # "record" (recorded_collections refuses any other string)
+        recording = bool(probes_lib.recorded_collections(probes, tape))
 
         def one(s, t, o, k, g, u, p, taped):
-            return rollout(generators, phase_params, s, t, o, k, spec, length, max_length, probes=p,
-                           ground_truth=g, use_prior=u, tape="record" if record else taped)
+            taped = "record" if record else taped
+            hook = None if p is None and taped is None else probes_lib.RecordingHook(p, taped)
+            return rollout(generators, phase_params, s, t, o, k, spec, length, max_length, ground_truth=g,
+                           use_prior=u, hook=hook)
 
         # Probes and taped values in, recorded values out stay step-major (steps, B, ...), the layout the
         # batched scan keeps them in, so the scan and the after-scan kernel gradients read them without a
         # transposing copy.
-        recording = bool(_recorded_collections(probes, tape))
         return jax.vmap(one, in_axes=(0, 0, 0, 0, 0, 0, 1, 1), out_axes=(0, 1) if recording else 0)(
             start, target, offsets, keys, truth, use_prior, probes, None if record else tape)
 

@@ -222,9 +222,10 @@ def test_recorded_values_are_stacked_once():
     batch = synthetic_batch()
     start, target, offsets = RO.keyframes_from_batch(batch, 7)
     one = jax.tree.map(lambda x: x[0], (start, target, offsets))
+    from stitchjax.accel import probes
+
     _, records = RO.rollout(params, phase_params_for(config), *one, jax.random.PRNGKey(1), RO.rollout_spec(config), 7,
-                            10,
-                            tape="record")
+                            10, hook=probes.RecordingHook(tape="record"))
     forward_inputs, forward_outputs = records["inputs"]["forward"], records["output_tape"]["forward"]
     assert forward_inputs["state_encoder"]["dense_1"]["kernel"] is forward_outputs["state_encoder"]["dense_0"]["output"]
     parts = forward_inputs["lstm"]["input_kernel"]

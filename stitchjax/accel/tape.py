@@ -8,7 +8,7 @@ array per matmul. Taped, the rollout runs twice instead:
 
 1. **record**: the scan runs undifferentiated; each *tape point* (an activation, a gate, the experts'
    outputs) stores its value, and each matmul its input. One array per distinct value is stacked
-   (``rollout._unique_leaves``).
+   (``accel.probes.unique_leaves``).
 2. **replay**: the scan runs again, differentiated, with the tape as input. A tape point returns its taped
    value y instead of computing f(x), so the matmul that made x is dead code, and its backward pass forms
    f'(x) from y (:data:`DERIVATIVES`), reading y from the tape instead of stacking a copy. A tape point that
