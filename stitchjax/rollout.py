@@ -1,6 +1,6 @@
 """Bidirectional aligned rollout with stitching (paper section 3, Eq. 2), for one example; vmap for batches.
 
-Size (~450 lines): one job, the rollout; half of it is docstrings of the frame conventions and of each
+Size (~680 lines): one job, the rollout; half of it is docstrings of the frame conventions and of each
 named paper step (``aligning_step``, ``interpolation_weight``, ``stitch``), kept beside the code they fix.
 
 Frames of a transition of length L (L generated in-betweens): 0 = start keyframe, 1..L generated,
@@ -34,10 +34,11 @@ Settings: every function reads a :class:`RolloutSpec` (L's scan, K, the gamma sc
 sizes and switches), built once by :func:`rollout_spec` where the train step is made (``specs.train_spec``)
 or a model is loaded (``trained_model.Model.rollout_spec``), never the whole Config.
 
-Gradients: with ``train.weight_gradients_after_scan`` (default) the generators' kernel gradients are formed
-after the scan, one matmul per kernel (``stitchjax.accel.scan_gradients``); same numbers, less time. With
-``train.scan_remat="taped"`` the scan runs twice, recording then replaying a tape (``stitchjax.accel.tape``), so
-that each value the backward pass needs is stacked once.
+Gradients: :func:`rollout_batch` (the training step's rollout) takes the fast paths of ``stitchjax.accel``: with
+``train.weight_gradients_after_scan`` (default) the generators' kernel gradients are formed after the scan, one
+matmul per kernel; with ``train.scan_remat="taped"`` the scan runs twice, recording then replaying a tape, so
+that each value the backward pass needs is stacked once. Same numbers, less time. The steps themselves see
+only a hook (:class:`StepHook`), which runs the plain generator unless a fast path gives another.
 """
 from __future__ import annotations
 
@@ -58,8 +59,9 @@ from stitchjax.accel import tape as tape_lib
 from stitchjax.config import CHOICES
 
 __all__ = ["RolloutSpec", "rollout_spec", "rollout", "rollout_batch", "keyframes_from_batch", "num_steps",
-           "schedule", "interpolation_weight", "StepHook", "aligning_step", "stitch", "keyframe_velocity", "keyframe_states", "direction_frames",
-           "next_frame_states", "correlated_noise", "prior_sample_flags", "GAUSSIAN_KEYS"]
+           "schedule", "interpolation_weight", "StepHook", "aligning_step", "stitch", "keyframe_velocity",
+           "keyframe_states", "direction_frames", "next_frame_states", "correlated_noise", "prior_sample_flags",
+           "GAUSSIAN_KEYS"]
 
 _ACTIVATION_NAMES = CHOICES[("model", "activation")]
 GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend", "mu_posterior",
