@@ -155,8 +155,8 @@ def test_configs_saved_before_the_posterior_are_refused_naming_the_fields_to_add
         del saved["model"][name]
     del saved["phase"]["include_reversed"]
     saved["train"]["length_counts_keyframes"] = False  # a removed field
-    with pytest.raises(C.ConfigError, match="lacks model.posterior, model.z_every_layer, model.decoder_uses_lstm, "
-                                            "model.gamma_schedule, phase.include_reversed"):
+    with pytest.raises(C.ConfigError, match="lacks model.gamma_schedule, model.posterior, model.z_every_layer, "
+                                            "model.decoder_uses_lstm, phase.include_reversed"):  # field order
         C.from_dict(json.loads(json.dumps(saved)))
     saved["model"].update(posterior="none", z_every_layer=False, decoder_uses_lstm=True, gamma_schedule="transition")
     saved["phase"]["include_reversed"] = False
