@@ -12,7 +12,7 @@ README.md ("What is where") gives each module's one job.
 """
 
 __version__ = "0.1.0"
-RELEASE_MODEL = "lafan1_cpu_mixed"  # the folder of stitchjax/models/ that pretrained() loads
+RELEASE_MODEL = "lafan1_cpu_release"  # the folder of stitchjax/models/ that pretrained() loads
 
 
 def pretrained(name: str | None = None):

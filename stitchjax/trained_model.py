@@ -2,7 +2,7 @@
 
     model = pretrained()                              # the release model shipped in stitchjax/models/
     model = load_model("runs/quickstart")            # a training run (or a checkpoint folder)
-    model = load_model("stitchjax/models/lafan1_cpu_mixed")   # an exported model folder (bin/export)
+    model = load_model("stitchjax/models/lafan1_cpu_release")   # an exported model folder (bin/export)
     model = random_model(config_lib.load_config("tiny"), seed=0)   # untrained: timing, tests, shapes
     fast = with_matmul_dtype(model, "bfloat16")      # same parameters, bfloat16 matmul operands
 
@@ -361,7 +361,7 @@ def pretrained(name: str = RELEASE_MODEL) -> Model:
         model = stitchjax.pretrained()
         clips = stitchjax.takes.inbetween_takes(model, take, 100, take, 140, num_samples=4)
 
-    name: a folder of ``stitchjax/models/`` (default :data:`RELEASE_MODEL`: ``lafan1_cpu_mixed``, the
+    name: a folder of ``stitchjax/models/`` (default :data:`RELEASE_MODEL`: ``lafan1_cpu_release``, the
     LAFAN1 skeleton at 30 fps in centimetres, trained from scratch by the config of that name). Parameters are
     stored in float16 and computed in float32. Made by ``bin/export``.
     """
@@ -410,7 +410,7 @@ def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None
 
 def with_matmul_dtype(model: Model, dtype: str) -> Model:
     """The same model computing its matmuls on ``dtype`` operands ("float32" or "bfloat16", float32
-    accumulation either way; see ``networks.matmul``). Parameters are unchanged, so a float32-trained
+    accumulation either way; see ``accel.matmul.matmul``). Parameters are unchanged, so a float32-trained
     model can sample in bfloat16: ~1.8x faster on CPUs with AMX / AVX512-BF16 (benchmarks/README.md); with
     the same seed, joint positions move by ~0.2 cm on average (up to ~1 cm mid-transition)."""
     try:

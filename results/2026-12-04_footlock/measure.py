@@ -10,7 +10,8 @@ largest per-frame joint displacement (cm) over the keyframes and generated frame
 over whole windows, the largest bone-length change (cm), the largest knee-angle change per frame (degrees;
 the ground truth's beside it), the shares of planted, let-go and lifted (``clearance``) generated
 leg-frames, and the pass's time against sampling's. --checkpoint: a training run or an exported model
-folder (the release model: stitchjax/models/lafan1_cpu_mixed).
+folder (default: the release model, stitchjax.pretrained(); version 2 was measured with the earlier release
+model lafan1_cpu_mixed, which git history keeps).
 """
 import argparse
 import dataclasses
@@ -66,7 +67,7 @@ def scores(rotations, positions, gt_q, gt_p, ground, offsets, parents):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", default="../shared/data/lafan1")
-    parser.add_argument("--checkpoint", default="results/lafan1_cpu/from_scratch_mixed/models/pkv128")
+    parser.add_argument("--checkpoint", default=None, help="default: the release model (stitchjax.pretrained())")
     parser.add_argument("--windows", choices=("train", "test"), default="train")
     parser.add_argument("--takes", default=",".join(TRAIN_TAKES),
                         help="with --windows train: the training takes (comma-separated names, no .bvh)")
@@ -89,7 +90,7 @@ def main(argv=None):
     if 0 < args.count < len(windows.rotations):
         windows = windows[np.linspace(0, len(windows.rotations) - 1, args.count).round().astype(int)]
     config = footlock.FootLockConfig(**json.loads(args.config))
-    model = trained_model.load_model(args.checkpoint)
+    model = trained_model.load_model(args.checkpoint) if args.checkpoint else trained_model.pretrained()
     parents = tuple(windows.skeleton.parents)
     rot, pos, con = (np.asarray(x, np.float64) for x in (windows.rotations, windows.positions, windows.contacts))
     gt_q_all, gt_p_all = forward_kinematics(rot, pos, parents)
