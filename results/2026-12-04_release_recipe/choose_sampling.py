@@ -5,9 +5,11 @@
 Each GRID.json is a `bin/evaluate model --split validation --noise-correlation RHO --noise-ramp K
 --noise-scales S1,S2,...` output. Every model row (noise x1 and each scale) of every file is a candidate
 (scale, RHO, K). A candidate is admissible when it is below interpolation on ADE, NPSS and foot slide at every
-length of the files (L = 30 and 50); the choice is the admissible candidate whose samples are furthest apart at
+length of the files (L = 30 and 50) by a margin: each ratio at most --margin (default 0.95, fixed before any
+grid was read beyond the first two settings: the validation split is three takes, and a default must hold on
+other motion); the choice is the admissible candidate whose samples are furthest apart at
 mid-transition at the longest length (mean per-joint distance, cm). When no candidate is admissible (the model
-itself slides its feet more than interpolation), the rule falls back to: below interpolation on ADE and NPSS,
+itself slides its feet more than interpolation), the rule falls back to: ADE and NPSS within the margin,
 and foot slide no higher than at the paper's sampling (scale 1, RHO 0, K 0) at every length; the output says
 which rule chose. Prints the table and the choice.
 """
@@ -35,6 +37,7 @@ def main():
     parser.add_argument("grids", nargs="+", help="bin/evaluate --split validation JSON files (with a 'sampling' key "
                                                  "added: {noise_correlation, noise_ramp_steps})")
     parser.add_argument("--out", required=True)
+    parser.add_argument("--margin", type=float, default=0.95, help="largest admissible ratio to interpolation")
     args = parser.parse_args()
     table = []
     for path in args.grids:
@@ -42,15 +45,17 @@ def main():
             ratios = {f"{m}_L{n}": model[n][m] / interp[n][m] for n in model for m in CRITERIA}
             table.append({"noise_scale": scale, "noise_correlation": rho, "noise_ramp_steps": ramp, **ratios,
                           "spread_mid_cm": {n: model[n]["spread_mid"] for n in model},
-                          "admissible": all(r < 1.0 for r in ratios.values()), "source": pathlib.Path(path).name})
+                          "admissible": all(r <= args.margin for r in ratios.values()),
+                          "source": pathlib.Path(path).name})
     longest = max(table[0]["spread_mid_cm"], key=int)
-    rule = "below interpolation on ADE, NPSS and foot slide at every length"
+    rule = f"ADE, NPSS and foot slide at most {args.margin:g} x interpolation's at every length"
     if not any(row["admissible"] for row in table):
         paper = next(r for r in table if (r["noise_scale"], r["noise_correlation"], r["noise_ramp_steps"]) == (1.0, 0.0, 0))
-        rule = ("no candidate is below interpolation on foot slide; fallback: below interpolation on ADE and NPSS, "
-                "foot slide no higher than at the paper's sampling, at every length")
+        rule = (f"no candidate has foot slide at most {args.margin:g} x interpolation's; fallback: ADE and NPSS at "
+                f"most {args.margin:g} x interpolation's, foot slide no higher than at the paper's sampling, at every "
+                "length")
         for row in table:
-            row["admissible"] = all(row[k] < 1.0 for k in row if k.startswith(("ade_L", "npss_L"))) and all(
+            row["admissible"] = all(row[k] <= args.margin for k in row if k.startswith(("ade_L", "npss_L"))) and all(
                 row[k] <= paper[k] for k in row if k.startswith("foot_slide_L"))
     admissible = [row for row in table if row["admissible"]]
     best = max(admissible, key=lambda row: row["spread_mid_cm"][longest]) if admissible else None
