@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# The ablation on the validation split: every row trained from scratch for the same steps from the same seed,
+# then scored on the whole validation split (10 samples, L = 30 and 50). Resumable: a finished row is skipped.
+#
+#   DATA=/path/to/lafan1 RUNS=/path/to/runs STEPS=5000 bash results/2026-12-04_validation_ablation/run.sh [ROW ...]
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+HERE=results/2026-12-04_validation_ablation
+DATA=${DATA:?set DATA to the LAFAN1 folder}
+RUNS=${RUNS:?set RUNS to a folder for the runs}
+STEPS=${STEPS:-5000}
+# lafan1_cpu_release decays its learning rate from step 8000 on, so its first STEPS (<= 8000) steps are a constant
+# learning rate as in the lafan1_cpu rows; the "recipe" row is therefore the release run's own checkpoint STEPS.
+EXTRA="data.extra_train_dirs=../lafan1_filtered60"
+declare -A ROWS=(
+  [paper]="--config lafan1_cpu"
+  [extra]="--config lafan1_cpu $EXTRA"
+  [extra_starts]="--config lafan1_cpu $EXTRA data.random_starts=true"
+  [extra_starts_mirror]="--config lafan1_cpu $EXTRA data.random_starts=true data.mirror=true"
+  [recipe]="--config lafan1_cpu_release"
+  [recipe_posterior_none]="--config lafan1_cpu_release model.posterior=none"
+  [recipe_no_foot_terms]="--config lafan1_cpu_release loss.foot_skate_weight=0 loss.foot_velocity_weight=0"
+  [recipe_paper_kl]="--config lafan1_cpu_release loss.kl_weight=1.0 loss.free_bits=0 loss.kl_warmup_steps=0 loss.prior_sample_fraction=0"
+)
+ORDER=(paper extra extra_starts extra_starts_mirror recipe recipe_posterior_none recipe_no_foot_terms recipe_paper_kl)
+[ $# -gt 0 ] && ORDER=("$@")
+for row in "${ORDER[@]}"; do
+  out=$HERE/$row.json
+  [ -f "$out" ] && { echo "$row: done ($out)"; continue; }
+  start=$(date +%s)
+  # shellcheck disable=SC2086
+  bin/train ${ROWS[$row]} --workdir "$RUNS/$row" --data "$DATA" --no-progress train.max_steps=$STEPS \
+      train.eval_every=1000 train.eval_windows=64 train.checkpoint_every_steps=500 > "$RUNS/$row.log" 2>&1
+  trained=$(date +%s)
+  bin/evaluate model --checkpoint "$RUNS/$row/checkpoints/$STEPS" --data "$DATA" --split validation \
+      --samples 10 --lengths 30,50 --noise-scales '' --json "$RUNS/$row.eval.json" >> "$RUNS/$row.log" 2>&1
+  python results/2026-12-04_release_run/summarise.py --metrics "$RUNS/$row/metrics.jsonl" \
+      --evaluation "$RUNS/$row.eval.json" --out "$RUNS/$row.summary.json" > /dev/null
+  python - "$RUNS/$row.eval.json" "$RUNS/$row.summary.json" "$out" "$row" "${ROWS[$row]} train.max_steps=$STEPS" \
+      "$((trained - start))" "$(git rev-parse --short HEAD)" <<'PY'
+import json, sys
+evaluation, summary, out, row, overrides, train_s, commit = sys.argv[1:]
+summary = json.loads(open(summary).read())
+json.dump({"row": row, "command": f"bin/train {overrides}", "commit": commit, "train_wall_s": int(train_s),
+           "ratios": summary["evaluation"], "curve": summary["curve"], "evaluation": json.loads(open(evaluation).read())},
+          open(out, "w"), indent=1)
+PY
+  echo "$row: $(( $(date +%s) - start )) s"
+done
