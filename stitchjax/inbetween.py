@@ -45,7 +45,7 @@ from stitchjax import rollout as rollout_lib
 from stitchjax import rotations as R
 from stitchjax.bvh import Motion
 from stitchjax.skeleton import forward_kinematics
-from stitchjax.trained_model import InbetweenError, Model, model_or_pretrained
+from stitchjax.trained_model import InbetweenError, Model, check_sampling, model_or_pretrained
 from stitchjax.windows import CONTACT_THRESHOLD, center_and_face, facing_rotation, foot_contacts
 
 __all__ = [
@@ -141,17 +141,13 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
       keyframe to full at this many steps (0: full from the first frame, the paper's; ``rollout.noise_ramp``).
     """
     _check_request(model, length, num_samples, search, warn=True)
-    if not np.isfinite(noise_scale) or noise_scale < 0:
-        raise InbetweenError(f"noise_scale must be a finite number >= 0, got {noise_scale}")
     if noise_correlation is None:
         noise_correlation = model.rollout_spec.noise_correlation
-    if not 0.0 <= noise_correlation <= 1.0:
-        raise InbetweenError(f"noise_correlation must be in [0, 1], got {noise_correlation}")
-    if int(noise_ramp_steps) != noise_ramp_steps or noise_ramp_steps < 0:
-        raise InbetweenError(f"noise_ramp_steps must be a whole number of frames >= 0, got {noise_ramp_steps}")
+    noise = check_sampling({"noise_scale": noise_scale, "noise_correlation": noise_correlation,
+                            "noise_ramp_steps": noise_ramp_steps})  # InbetweenError naming a bad one
     candidates = num_samples * max(int(search), 1)
-    fn = _compiled_sampler(model.rollout_spec, int(length), int(candidates), float(noise_scale),
-                           float(noise_correlation), int(noise_ramp_steps))
+    fn = _compiled_sampler(model.rollout_spec, int(length), int(candidates), noise["noise_scale"],
+                           noise["noise_correlation"], noise["noise_ramp_steps"])
     as32 = functools.partial(jnp.asarray, dtype=jnp.float32)
     out = fn(model.params, model.phase_params, jax.tree.map(as32, start), jax.tree.map(as32, target),
              as32(offsets), _as_key(seed))

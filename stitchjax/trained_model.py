@@ -273,15 +273,15 @@ def check_sampling(sampling: dict) -> dict:
     if "noise_scale" in sampling:
         out["noise_scale"] = float(sampling["noise_scale"])
         if not (np.isfinite(out["noise_scale"]) and out["noise_scale"] >= 0):
-            raise InbetweenError(f"sampling noise_scale must be a finite number >= 0, got {sampling['noise_scale']}")
+            raise InbetweenError(f"noise_scale must be a finite number >= 0, got {sampling['noise_scale']}")
     if "noise_correlation" in sampling:
         out["noise_correlation"] = float(sampling["noise_correlation"])
         if not 0.0 <= out["noise_correlation"] <= 1.0:
-            raise InbetweenError(f"sampling noise_correlation must be in [0, 1], got {sampling['noise_correlation']}")
+            raise InbetweenError(f"noise_correlation must be in [0, 1], got {sampling['noise_correlation']}")
     if "noise_ramp_steps" in sampling:
         ramp = sampling["noise_ramp_steps"]
         if int(ramp) != ramp or ramp < 0:
-            raise InbetweenError(f"sampling noise_ramp_steps must be a whole number of frames >= 0, got {ramp}")
+            raise InbetweenError(f"noise_ramp_steps must be a whole number of frames >= 0, got {ramp}")
         out["noise_ramp_steps"] = int(ramp)
     return out
 
