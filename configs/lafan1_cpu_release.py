@@ -14,9 +14,10 @@ and the extensions of the previous from-scratch recipe (`lafan1_cpu_mixed`, now
 `results/lafan1_cpu/scratch_mixed/lafan1_cpu_mixed.py`, pinned here value by value): the KL
 weight at 0.1 with 1 free nat and a 500-step warm-up, half of each batch rolled out from the prior, the foot-skate
 term on either end's height at 128, the foot-velocity term at 16, contact outputs that pass gradients as inputs,
-every length drawn after the schedule, and the learning rate decayed. Those were measured better than the
-paper's loss on earlier test-set figures; they are NOT yet chosen on the validation split (an ablation on it
-is still to be run), so treat them as the inherited recipe, not a validated choice.
+every length drawn after the schedule, and the learning rate decayed. Those were first chosen on test-set
+figures; on the validation split they are measured only as a group (ahead of the paper's loss on the same data,
+results/2026-12-04_validation_ablation), not one by one, so each stays an inherited choice until its own
+ablation.
 """
 from stitchjax.config import variant
 
