@@ -5,8 +5,8 @@
 - cold: training statistics (subjects 1-4, 50/20) + benchmark test set (subject5, 65/40) with an
   empty, temporary cache folder (BVH parsing, windows, contacts, alignment, cache writes);
 - cached: the same calls again (content hashing + loading the cache entries);
-- BVH parse throughput: ``stitchjax.bvh.load`` over every file of the folder, frames per second.
-Timings are in-process (imports excluded: ``import stitchjax.lafan1`` is timed separately).
+- BVH parse throughput: ``stitchjax.data.bvh.load`` over every file of the folder, frames per second.
+Timings are in-process (imports excluded: ``import stitchjax.data.lafan1`` is timed separately).
 """
 from __future__ import annotations
 
@@ -37,11 +37,11 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     start = time.perf_counter()
-    from stitchjax import bvh, lafan1
+    from stitchjax.data import bvh, lafan1
     import_s = time.perf_counter() - start
 
     files = [p for ps in lafan1.list_files(args.data).values() for p in ps]
-    print(f"LAFAN1 folder {args.data}: {len(files)} files; import stitchjax.lafan1: {import_s:.2f} s")
+    print(f"LAFAN1 folder {args.data}: {len(files)} files; import stitchjax.data.lafan1: {import_s:.2f} s")
 
     with tempfile.TemporaryDirectory(prefix="stitchjax-bench-") as tmp:
         cpu = cpu_seconds()
@@ -70,7 +70,7 @@ def main(argv=None):
     parse_s = time.perf_counter() - start
     cpu = cpu_seconds() - cpu
     print(f"parse  : {frames} frames in {parse_s:.2f} s = {frames / parse_s:,.0f} frames/s wall, "
-          f"{frames / cpu:,.0f} frames per CPU-s (stitchjax.bvh.load, one process)")
+          f"{frames / cpu:,.0f} frames per CPU-s (stitchjax.data.bvh.load, one process)")
     try:
         print(f"load average (1 min) during the run: {__import__('os').getloadavg()[0]:.1f} "
               f"on {__import__('os').cpu_count()} cores (other processes slow the wall times)")

@@ -48,14 +48,15 @@ def main(argv=None) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from stitchjax import bvh, footlock, inbetween, sample, trained_model
+    from stitchjax.data import bvh, bundled
+    from stitchjax.sample import footlock, inbetween, trained_model
     from stitchjax import config as config_lib
 
     if args.checkpoint == "random":
         model = trained_model.random_model(config_lib.load_config("lafan1"), seed=0)
     else:
         model = trained_model.load_model(args.checkpoint)
-    take = bvh.load(sample.sample_files(["subject5"])[0])
+    take = bvh.load(bundled.sample_files(["subject5"])[0])
     a, b = 100, 100 + args.length + 1
     keys = dict(start_rotations=take.rotations[[a]], start_positions=take.positions[[a]],
                 start_contacts=[[1.0, 1.0, 0.0, 0.0]], target_rotations=take.rotations[[b]],

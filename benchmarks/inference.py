@@ -42,12 +42,13 @@ def _time(fn, runs: int) -> tuple[float, float]:
 def bench(config_name: str, length: int, samples: int, runs: int) -> dict:
     import jax
 
-    from stitchjax import bvh, inbetween, sample, trained_model
+    from stitchjax.data import bvh, bundled
+    from stitchjax.sample import inbetween, trained_model
     from stitchjax import config as config_lib
 
     config = config_lib.load_config(config_name)
     model = trained_model.random_model(config, seed=0)
-    take = bvh.load(sample.sample_files(["subject5"])[0])
+    take = bvh.load(bundled.sample_files(["subject5"])[0])
     a, b = 100, 100 + length + 1
     keys = dict(start_rotations=take.rotations[[a]], start_positions=take.positions[[a]],
                 start_contacts=[[1.0, 1.0, 0.0, 0.0]], target_rotations=take.rotations[[b]],

@@ -252,7 +252,8 @@ class JaxTrain:
     def __init__(self, config, length: int, num_windows: int | None = None, mesh=None):
         import jax
         import jax.numpy as jnp
-        from stitchjax import parallel, train
+        from stitchjax import parallel
+        from stitchjax.train import loop as train
 
         self.config = config
         self.mesh = parallel.make_mesh() if mesh is None else mesh
@@ -313,13 +314,14 @@ class JaxInfer:
 
         start, target, offsets = keyframe(0), keyframe(length + 1), data["offsets"][:1, 0]
         try:
-            from stitchjax import inbetween, trained_model
+            from stitchjax.sample import inbetween, trained_model
             self.model = trained_model.random_model(config, seed=seed)
             self.params, self.phase_params = self.model.params, self.model.phase_params
             self.api = "inbetween.sample_transitions (random_model weights)"
             self.fn = lambda: inbetween.sample_transitions(self.model, start, target, offsets, length, samples, 1)
         except (ImportError, AttributeError):
-            from stitchjax import networks, phase, rollout as rollout_lib
+            from stitchjax.model import networks, rollout as rollout_lib
+            from stitchjax.data import phase
             spec = rollout_lib.rollout_spec(config) if hasattr(rollout_lib, "rollout_spec") else config
             key = jax.random.PRNGKey(seed)
             model_spec = networks.model_spec(config) if hasattr(networks, "model_spec") else config

@@ -87,7 +87,8 @@ def parts(batch: int, length: int, dtype: str, reps: int, profile_dir: pathlib.P
           scan_remat: str = "none") -> list:
     import jax
 
-    from stitchjax import losses, rollout, specs
+    from stitchjax import specs
+    from stitchjax.model import losses, rollout
 
     config = run_all.bench_config(batch, length, [f"model.matmul_dtype={dtype}", f"train.scan_remat={scan_remat}"])
     whole = run_all.JaxTrain(config, length)

@@ -1,11 +1,11 @@
 """An eager PyTorch twin of the stitchjax model and train step, written the way a PyTorch user would.
 
-Same networks and layer sizes as ``stitchjax.networks`` (S-CVAE encoders, LSTM cell, latent heads,
+Same networks and layer sizes as ``stitchjax.model.networks`` (S-CVAE encoders, LSTM cell, latent heads,
 latent interpolation prior, the recognition network q(z | LSTM state, next frame), mixture-of-experts
 decoder with a gating MLP on the phase features, or a plain MLP decoder, z fed to every decoder layer,
 the phase network, the two LSGAN discriminators), the same bidirectional aligned rollout with stitching as
-``stitchjax.rollout`` (a Python loop over frames, batched over windows), the same losses as
-``stitchjax.losses`` (state, KL(q || p) with free bits and warm-up or the prior's KL, FK, stitching,
+``stitchjax.model.rollout`` (a Python loop over frames, batched over windows), the same losses as
+``stitchjax.model.losses`` (state, KL(q || p) with free bits and warm-up or the prior's KL, FK, stitching,
 LSGAN, foot skate), and ``torch.optim.AdamW`` with the config's settings for the generators and the
 discriminators. It exists to measure stitchjax against (benchmarks/run_all.py); it is not part of the
 package, and PyTorch is only an optional extra (``pip install -e '.[bench]'``).
@@ -319,7 +319,7 @@ class Twin:
         self.has_phase = True
         self.feet = None
         if lc.foot_skate_weight:
-            from stitchjax import datasets  # the contact joints of the dataset's skeleton
+            from stitchjax.data import datasets  # the contact joints of the dataset's skeleton
 
             self.feet = datasets.get(d.dataset).feet
             if self.feet is None:
@@ -743,7 +743,8 @@ def generator_noise(key, batch_size: int, config, max_length: int) -> np.ndarray
 def _jax_losses(config):
     """stitchjax's generator + discriminator losses, jitted once per config (length is traced)."""
     import jax
-    from stitchjax import losses, specs
+    from stitchjax import specs
+    from stitchjax.model import losses
 
     spec = specs.train_spec(config)
 
@@ -799,7 +800,8 @@ def check_equal_gradients(config, params, phase_params, batch_np: dict, length: 
     """
     import jax
     import jax.numpy as jnp
-    from stitchjax import losses, specs
+    from stitchjax import specs
+    from stitchjax.model import losses
 
     kl_scale = kl_warmup(step, config.loss.kl_warmup_steps)
     batch_j = {k_: jnp.asarray(v) for k_, v in batch_np.items()}

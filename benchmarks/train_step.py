@@ -34,7 +34,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from stitchjax import config as config_lib
-from stitchjax import datasets, parallel, train
+from stitchjax import parallel
+from stitchjax.data import datasets
+from stitchjax.train import loop as train
 
 
 def peak_rss_mib() -> float:

@@ -13,7 +13,7 @@ CMU_PARENTS = (-1, 0, 1, 2, 3, 4, 0, 6, 7, 8, 9, 0, 11, 12, 13, 14, 15, 13, 17, 
 
 get_config = variant(
     "quickstart",
-    "data.dataset=bvh_folder",  # reason: the generic loader (stitchjax/bvh_folder.py)
+    "data.dataset=bvh_folder",  # reason: the generic loader (stitchjax/data/bvh_folder.py)
     "data.parents=" + ",".join(map(str, CMU_PARENTS)),  # reason: FK in the losses needs the files' hierarchy
     "data.train_subjects=",  # reason: every file trains unless data.train_files / test_files split them
     "data.feet=LeftFoot,LeftToeBase,RightFoot,RightToeBase",  # reason: CMU's names (also inferred)

@@ -1,6 +1,6 @@
 """Quickstart: a small model trained for a few minutes on the bundled LAFAN1 sample, on a laptop CPU.
 
-    bin/train --config quickstart --workdir /tmp/run        # no --data: stitchjax.sample.sample_dir()
+    bin/train --config quickstart --workdir /tmp/run        # no --data: stitchjax.data.bundled.sample_dir()
 
 The lafan1 model with every width cut to 64 and shorter training windows, so that compilation, phase
 pretraining and a few hundred steps fit in a few minutes on 2 CPU cores. It shows the pipeline working

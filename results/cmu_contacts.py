@@ -28,9 +28,11 @@ sys.path.insert(0, str(REPO))
 
 import numpy as np  # noqa: E402
 
-from stitchjax import bvh_folder, config as config_lib, datasets, trained_model  # noqa: E402
+from stitchjax import config as config_lib  # noqa: E402
+from stitchjax.data import bvh_folder, datasets
+from stitchjax.sample import trained_model
 from stitchjax.skeleton import forward_kinematics  # noqa: E402
-from stitchjax.windows import CONTACT_THRESHOLD  # noqa: E402
+from stitchjax.data.windows import CONTACT_THRESHOLD  # noqa: E402
 
 DEFAULT_DATA = REPO.parent / "shared" / "data" / "cmu"
 

@@ -25,7 +25,11 @@ import numpy as np
 REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from stitchjax import evaluate, lafan1, metrics, plots, rollout, skeleton, trained_model  # noqa: E402
+from stitchjax import skeleton  # noqa: E402
+from stitchjax.eval import evaluate, metrics, plots
+from stitchjax.data import lafan1
+from stitchjax.model import rollout
+from stitchjax.sample import trained_model
 from foot_slide_frames import method_positions, truth_positions  # noqa: E402  (results/, the script's folder)
 
 

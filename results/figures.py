@@ -22,7 +22,9 @@ sys.path.insert(0, str(REPO))
 
 import numpy as np  # noqa: E402
 
-from stitchjax import evaluate, lafan1, metrics, plots, trained_model  # noqa: E402
+from stitchjax.eval import evaluate, metrics, plots  # noqa: E402
+from stitchjax.data import lafan1
+from stitchjax.sample import trained_model
 from stitchjax.skeleton import forward_kinematics  # noqa: E402
 
 START = 9  # the protocol's start keyframe (docs/design.md §6)

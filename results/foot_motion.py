@@ -28,7 +28,10 @@ import numpy as np
 REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from stitchjax import evaluate, lafan1, metrics, plots, skeleton, trained_model  # noqa: E402
+from stitchjax import skeleton  # noqa: E402
+from stitchjax.eval import evaluate, metrics, plots
+from stitchjax.data import lafan1
+from stitchjax.sample import trained_model
 from foot_slide_frames import method_positions, per_frame_slide, truth_positions, with_keyframes  # noqa: E402  (results/, the script's folder)
 
 

@@ -10,7 +10,7 @@ or --offset from where its own take has it (``--offset-from file``, bin/inbetwee
 writing the transition alone (``--output transition``). Then it measures, on the BVH files bin/inbetween wrote:
 
 - end error: the largest distance (cm) between any joint of the last frame and the same joint of the
-  placed target keyframe (``stitchjax.conform.place`` of the target take); likewise for the first frame;
+  placed target keyframe (``stitchjax.data.conform.place`` of the target take); likewise for the first frame;
 - root speed (cm/frame): |root[t+1] - root[t]| over the L + 2 frames (keyframes included), and its
   jumps |speed[t] - speed[t-1]| (cm/frame per frame): the largest inside the transition, and the largest
   around the stitch (the middle frames L//2 - 1 .. L//2 + 2);
@@ -18,7 +18,7 @@ writing the transition alone (``--output transition``). Then it measures, on the
   its file and frame, and the 99.9th percentile for scale.
 
 Writes OUT/placed_target.json (every figure above, per sample and overall, with units), OUT/filmstrip.png
-(stitchjax.plots: the samples, keyframes black, each titled with its jumps) and OUT/root_speed.png, keeps
+(stitchjax.eval.plots: the samples, keyframes black, each titled with its jumps) and OUT/root_speed.png, keeps
 bin/inbetween's own output under OUT/inbetween/, and prints one verdict line. Exit status: 0 when the
 output ends on the placed target (< --tolerance cm) and no sample's speed jump exceeds the ground truth's
 largest, 1 when measured but not, 2 for bad input (one "placed_target: error: ..." line).
@@ -37,7 +37,8 @@ sys.path.insert(0, str(REPO))
 
 import numpy as np  # noqa: E402
 
-from stitchjax import bvh, conform, plots  # noqa: E402
+from stitchjax.data import bvh, conform  # noqa: E402
+from stitchjax.eval import plots
 
 DEFAULT_DATA = REPO.parent / "shared" / "data" / "lafan1"
 MID_BEFORE, MID_AFTER = 1, 2  # jumps at frames L//2 - 1 .. L//2 + 2 count as "at the stitch"

@@ -10,7 +10,9 @@ import sys
 REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from stitchjax import evaluate, lafan1, skeleton, tables  # noqa: E402
+from stitchjax import skeleton  # noqa: E402
+from stitchjax.eval import evaluate, tables
+from stitchjax.data import lafan1
 
 
 def parser(description: str) -> argparse.ArgumentParser:

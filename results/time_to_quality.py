@@ -20,7 +20,7 @@ import sys
 REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from stitchjax import reporting  # noqa: E402
+from stitchjax.train import reporting  # noqa: E402
 
 
 def read_rows(path: pathlib.Path) -> list[dict]:

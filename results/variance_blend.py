@@ -20,7 +20,8 @@ sys.path.insert(0, str(REPO))
 
 import sampling_protocol  # noqa: E402  (results/, beside this script)
 from stitchjax import config as config_lib  # noqa: E402
-from stitchjax import evaluate, trained_model  # noqa: E402
+from stitchjax.eval import evaluate  # noqa: E402
+from stitchjax.sample import trained_model
 
 
 def main(argv=None) -> int:

@@ -7,7 +7,7 @@ One checkpoint = one folder `WORKDIR/checkpoints/<step>/` holding
   - `extras/`: small JSON-able values saved beside the state (the normalisation statistics).
 
 Atomicity: orbax writes a step into a temporary folder (`<step>.orbax-checkpoint-tmp-<n>`) and renames it
-to `<step>` only once every file is written (tests/test_checkpoints.py checks this), so a run killed while
+to `<step>` only once every file is written (tests/train/test_checkpoints.py checks this), so a run killed while
 saving leaves the previous checkpoint intact and `latest_step` never returns a half-written one.
 Restoring goes onto an abstract state (`jax.eval_shape` of the initial state), which gives orbax the
 shapes, dtypes and shardings without allocating a second copy.

@@ -43,14 +43,14 @@ class DataConfig:
     offset: int = 20  # paper: window offset 20
     fps: float = 30.0  # paper: LAFAN1's frame rate
     # --- choices the paper leaves open
-    dataset: str = "lafan1"  # reason: which loader builds the windows (stitchjax.datasets: lafan1, h36m, bvh_folder)
+    dataset: str = "lafan1"  # reason: which loader builds the windows (stitchjax.data.datasets: lafan1, h36m, bvh_folder)
     data_dir: str = ""  # reason: empty = ../shared/data/<dataset> relative to the repo, or set it
     position_scale: float = 100.0  # reason: cm -> m so FK / stitch / offset inputs are O(1) on LAFAN1
     velocity_scale: float = 10.0  # reason: root speed in cm/frame / 10 is ~0.5 walking, ~2 sprinting
     parents: tuple = (-1, 0, 1, 2, 3, 0, 5, 6, 7, 0, 9, 10, 11, 12, 11, 14, 15, 16, 11, 18, 19, 20)
     # reason: FK inside the losses needs static parents; LAFAN1's 22 joints (the h36m and cmu configs set theirs)
     num_contacts: int = 4  # reason: contact channels in the state (LAFAN1 feet: LeftFoot/Toe, RightFoot/Toe)
-    # --- dataset "bvh_folder" only (any folder of BVH files; stitchjax/bvh_folder.py)
+    # --- dataset "bvh_folder" only (any folder of BVH files; stitchjax/data/bvh_folder.py)
     feet: tuple = ()  # reason: contact joints by name (left foot, left toe, right foot, right toe); () = common names
     up_axis: str = ""  # reason: the files' up axis ("+y", "+z", ...); "" = inferred
     forward_axis: str = ""  # reason: the root's local forward axis; "" = inferred from the upper legs and the up axis
@@ -170,13 +170,13 @@ class TrainConfig:
     # --- choices the paper leaves open
     num_epochs: int = 100  # reason: (5 -> 50 takes 90 epochs) + some epochs at the full length
     seed: int = 0  # reason: reproducibility
-    # --- run control (stitchjax/train.py)
+    # --- run control (stitchjax/train/loop.py)
     log_every: int = 100  # reason: steps between metric logs
     checkpoint_every: int = 1  # reason: epochs between checkpoints
     max_to_keep: int = 3  # reason: orbax CheckpointManager retention
     max_steps: int = 0  # reason: 0 = num_epochs epochs; > 0 caps the run (bin/train --max-steps)
     checkpoint_every_steps: int = 0  # reason: > 0 overrides checkpoint_every (epochs) with a step count
-    eval_every: int = 0  # reason: > 0 runs stitchjax.validation every this many steps (bin/train; 0 = off)
+    eval_every: int = 0  # reason: > 0 runs stitchjax.eval.validation every this many steps (bin/train; 0 = off)
     eval_windows: int = 32  # reason: windows validated (of data.validation_files, else the test windows;
     # evenly spaced, the same every time): cheap
     eval_lengths: tuple = (30,)  # reason: the paper's mid length; (30, 50) adds the long one
@@ -200,7 +200,7 @@ class TrainConfig:
 
 @dataclasses.dataclass(frozen=True)
 class PhaseConfig:
-    """Every knob of stitchjax.phase: local-phase labels, the phase network and its pretraining (the paper uses
+    """Every knob of stitchjax.data.phase: local-phase labels, the phase network and its pretraining (the paper uses
     local motion phases but gives none of these settings)."""
     # --- choices the paper leaves open
     window_seconds: float = 1.0  # reason: +-1 s fit window holds >= 1 period for F >= 0.5 Hz
@@ -470,7 +470,7 @@ EXTENSIONS = (
 """Every mechanism the paper does not have ("section.field"), off at its default; :func:`extensions_on`."""
 
 CHOICES = {
-    ("data", "dataset"): ("lafan1", "h36m", "bvh_folder"),  # stitchjax.datasets.REGISTRY has one entry each
+    ("data", "dataset"): ("lafan1", "h36m", "bvh_folder"),  # stitchjax.data.datasets.REGISTRY has one entry each
     ("model", "matmul_dtype"): ("float32", "bfloat16"),
     ("model", "variance_blend"): ("std", "var"),
     ("model", "posterior"): ("next_frame", "none"),
@@ -491,7 +491,7 @@ POSTERIOR_ONLY_FIELDS = (
 model.posterior="none" (:func:`inert_fields`)."""
 
 FINE_TUNABLE_MODEL_FIELDS = ("keyframe_velocity", "noise_correlation", "posterior_horizon")
-"""Model fields a fine-tune (``--init-from``, stitchjax.resume) may change: they change what the generators are fed,
+"""Model fields a fine-tune (``--init-from``, stitchjax.train.resume) may change: they change what the generators are fed,
 not what their parameters mean."""
 
 RETIRED_FIELDS = {("train", "length_counts_keyframes"), ("train", "output_dir")}

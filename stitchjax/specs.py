@@ -3,7 +3,7 @@
 Below that point functions take the spec they read, not the whole ``Config``:
 
 - :class:`SkeletonSpec`: the skeleton facts the losses and metrics need (parents, feet, up axis, scales),
-  read once from the dataset entry (``stitchjax.datasets``) and ``config.data``;
+  read once from the dataset entry (``stitchjax.data.datasets``) and ``config.data``;
 - :class:`LossSpec`: the loss section (the weights of paper Eq. 9 and the extensions' switches) and the
   model switches that decide which terms exist (posterior, directions, discriminators);
 - :class:`TrainSpec`: what one train step's objective reads: the two above and the rollout's
@@ -17,8 +17,9 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from stitchjax import conform, datasets, networks
-from stitchjax import rollout as rollout_lib
+from stitchjax.data import conform, datasets
+from stitchjax.model import networks
+from stitchjax.model import rollout as rollout_lib
 
 __all__ = ["SkeletonSpec", "LossSpec", "TrainSpec", "skeleton_spec", "loss_spec", "train_spec"]
 

@@ -37,7 +37,8 @@ def save_tiny_checkpoint(workdir, seed: int = 0) -> pathlib.Path:
     """A freshly initialised `tiny` model written as a training run writes it (checkpoints/0)."""
     import jax
 
-    from stitchjax import checkpoints, train
+    from stitchjax import checkpoints
+    from stitchjax.train import loop as train
     from stitchjax import config as config_lib
 
     config = config_lib.load_config("tiny")

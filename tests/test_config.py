@@ -86,7 +86,7 @@ def test_every_field_documents_its_choice():
 
 
 def test_override_choices_match_what_the_networks_accept():
-    from stitchjax import networks
+    from stitchjax.model import networks
     from stitchjax.accel import matmul as accel_matmul
 
     assert set(C.CHOICES[("model", "matmul_dtype")]) == set(accel_matmul.MATMUL_DTYPES)
@@ -125,7 +125,7 @@ def test_a_saved_config_lacking_a_field_outside_the_extensions_is_refused_naming
 
 
 def test_the_validation_takes_of_every_config_are_training_files_never_test_files(shared_data):
-    from stitchjax import datasets, lafan1
+    from stitchjax.data import datasets, lafan1
 
     data_dir = shared_data / "lafan1"
     test_stems = {p.name.split(".")[0] for p in lafan1.list_files(data_dir)["subject5"]}

@@ -43,7 +43,7 @@ def test_latent_space_notebook_runs(tiny_run, tmp_path):
 
 
 def test_checkpoint_from_env_resolves_against_the_command_directory(tmp_path):
-    from stitchjax import latent
+    from stitchjax.sample import latent
 
     run = tmp_path / "runs" / "quickstart"
     (run / "checkpoints").mkdir(parents=True)

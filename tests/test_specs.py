@@ -6,7 +6,8 @@ import jax
 import pytest
 
 from stitchjax import config as C
-from stitchjax import losses, networks, rollout, specs
+from stitchjax import specs
+from stitchjax.model import losses, networks, rollout
 from stitchjax.skeleton import LAFAN1_FEET
 
 
@@ -22,7 +23,7 @@ def _imported_modules(module) -> set:
 
 
 def test_losses_take_the_skeleton_from_a_spec_not_from_the_dataset_registry():
-    assert not {"datasets", "conform", "stitchjax.datasets", "stitchjax.conform"} & _imported_modules(losses)
+    assert not {"datasets", "conform", "stitchjax.data.datasets", "stitchjax.data.conform"} & _imported_modules(losses)
     skeleton = specs.skeleton_spec(C.Config())
     assert skeleton.feet == tuple(LAFAN1_FEET)
     assert (skeleton.up_axis, skeleton.up_index, skeleton.up_sign) == ("+y", 1, 1)

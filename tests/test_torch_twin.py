@@ -20,7 +20,8 @@ import jax.numpy as jnp  # noqa: E402
 import run_all  # noqa: E402
 import torch_twin  # noqa: E402
 from stitchjax import config as config_lib  # noqa: E402
-from stitchjax import features, networks, phase, rollout  # noqa: E402
+from stitchjax.data import features, phase  # noqa: E402
+from stitchjax.model import networks, rollout
 
 TINY = ["model.encoder_widths=32,32,16", "model.lstm_size=32", "model.latent_dim=8", "model.decoder_widths=32,32",
         "model.gating_widths=16,16", "model.disc_widths=32,16", "phase.hidden_dim=16", "data.window=14",

@@ -13,7 +13,9 @@ import time
 
 import numpy as np
 
-from stitchjax import footlock, inbetween, lafan1, metrics, plots, trained_model
+from stitchjax.sample import footlock, inbetween, trained_model
+from stitchjax.data import lafan1
+from stitchjax.eval import metrics, plots
 from stitchjax.skeleton import forward_kinematics
 
 FEET = (3, 4, 7, 8)

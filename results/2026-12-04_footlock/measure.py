@@ -24,7 +24,9 @@ import time
 
 import numpy as np
 
-from stitchjax import footlock, inbetween, lafan1, metrics, trained_model
+from stitchjax.sample import footlock, inbetween, trained_model
+from stitchjax.data import lafan1
+from stitchjax.eval import metrics
 from stitchjax.skeleton import forward_kinematics
 
 TRAIN_TAKES = ("walk4_subject1", "obstacles1_subject2", "multipleActions1_subject3", "pushAndFall1_subject4",

@@ -14,7 +14,7 @@ HERE=results/2026-12-04_release_recipe
 DATA=${DATA:?set DATA to the LAFAN1 folder}
 RUNS=${RUNS:?set RUNS to a folder for the run}
 RUN=$RUNS/release20k
-MODEL=stitchjax/models/lafan1_cpu_release
+MODEL=stitchjax/pretrained/lafan1_cpu_release
 STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(train export validation choose test)
 log() { echo "$(date -u +%FT%T) $*" | tee -a "$HERE/log.txt"; }
 timed() {  # timed NAME COMMAND...: run, log the command and its wall time

@@ -5,7 +5,7 @@
 
 Every frame of every subject1-4 file (the training subjects; 30 fps, cm, +Y up): the horizontal
 (x, z) distance the root moves from one frame to the next, its percentiles in cm/frame and cm/s, over the
-whole files (``stitchjax.features.root_speed_percentiles`` of each file's root path) and over the
+whole files (``stitchjax.data.features.root_speed_percentiles`` of each file's root path) and over the
 training windows (window 50, offset 20, as ``bin/train`` saves ``stats["root_speed_p99"]``).
 """
 import argparse
@@ -21,7 +21,7 @@ sys.path.insert(0, str(REPO))
 
 import numpy as np  # noqa: E402
 
-from stitchjax import bvh, features, lafan1  # noqa: E402
+from stitchjax.data import bvh, features, lafan1  # noqa: E402
 
 
 def main():

@@ -56,7 +56,7 @@ case "${1:-}" in
   scratch)  # the reproduction from scratch with prior samples and the foot-skate term from step 0 (configs/lafan1_cpu.py),
     # "none" trained the same way, and from step 2000 the height-weighted foot-skate term; the three went side by
     # side on the same 2 cores at nice -n 10 (results/README.md, "From scratch"). The runs were stopped by
-    # SIGTERM and resumed (same state: tests/test_train.py) to add the decay at the steps named here.
+    # SIGTERM and resumed (same state: tests/train/test_train.py) to add the decay at the steps named here.
     DECAY="train.lr_decay_to=0.1 train.lr_decay_from_step=5000 train.lr_decay_until_step=8000"
     bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/repro --data "$DATA" --no-progress --max-steps 8000 $DECAY &
     bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/none --data "$DATA" --no-progress --max-steps 8000 $DECAY \
@@ -99,7 +99,7 @@ case "${1:-}" in
     # and two "late prior" runs that train on the posterior only (loss.prior_sample_fraction=0) to step 9500 and
     # with prior samples again from there. 0.3 x the learning rate to step 9500, then a linear decay to 0.1 x at
     # step 10500. The runs were stopped by SIGTERM at steps 8116-8119 and resumed with these step counts (same
-    # state: tests/test_train.py); skate128 was stopped by SIGTERM just after step 9500 to add the decay.
+    # state: tests/train/test_train.py); skate128 was stopped by SIGTERM just after step 9500 to add the decay.
     FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress"
     BASE=$OUT/scratch/models/height32
     LOSS="loss.foot_skate_contacts=height loss.foot_skate_weight=32"
@@ -141,7 +141,7 @@ case "${1:-}" in
     # nothing else (the control); wide512 trains on the posterior alone (loss.prior_sample_fraction=0) to step 13500,
     # then with prior samples again at reconstruction weight 0.25; stitch512 raises the stitching weight to 2 (the
     # feet slid most inside the stitch overlap). Started with the decay to end at step 15000; stopped by SIGTERM at
-    # steps 12895-12903 and resumed (same state: tests/test_train.py) with it ending at step 14500 instead, to leave
+    # steps 12895-12903 and resumed (same state: tests/train/test_train.py) with it ending at step 14500 instead, to leave
     # time to evaluate (the learning rate stepped from 0.78 to 0.73 x 1e-4 there).
     FT="--config lafan1_cpu $CPU_BEFORE_PAPER --data $DATA --no-progress"
     BASE=$OUT/late_prior/models/skate512
@@ -230,7 +230,7 @@ case "${1:-}" in
     ;;
   scratch_mixed)  # lafan1_cpu from scratch with what the fine-tunes above found, from step 0: every length after the
     # schedule, the foot-skate term on either end's height at 128, the foot velocity term at 16; alone on the 2
-    # cores (nice -n 10). Stopped by SIGTERM at step 4616 and resumed (same state: tests/test_train.py) with the
+    # cores (nice -n 10). Stopped by SIGTERM at step 4616 and resumed (same state: tests/train/test_train.py) with the
     # learning rate decaying from step 6000 to 0.05 x at 14000, to step 16000 (the config lafan1_cpu_mixed)
     RUN="--config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/scratch_mixed --data $DATA --no-progress --max-steps 16000"
     bin/train $RUN $RECIPE
@@ -656,7 +656,7 @@ case "${1:-}" in
     ;;
   train_long)  # the reproduction run continued, a learning-rate decay, and two loss changes from step 5566
     # (results/README.md, "Longer training, a learning-rate decay, a foot-skate term"); runs/cvae_noprior
-    # must hold its step-3000 checkpoint. Stopping and resuming gives the same state (tests/test_train.py).
+    # must hold its step-3000 checkpoint. Stopping and resuming gives the same state (tests/train/test_train.py).
     cp -r runs/cvae_noprior runs/cvae_long
     bin/train --config lafan1_cpu $CPU_BEFORE_PAPER --workdir runs/cvae_long --data "$DATA" --no-progress $BEFORE --max-steps 5566
     mkdir -p runs/base5566/checkpoints && cp -r runs/cvae_long/checkpoints/5566 runs/base5566/checkpoints/

@@ -14,7 +14,10 @@ import pathlib
 import numpy as np
 import pytest
 
-from stitchjax import bvh, config, evaluate, inbetween, lafan1, sample, trained_model
+from stitchjax import config
+from stitchjax.data import bvh, lafan1, bundled
+from stitchjax.eval import evaluate
+from stitchjax.sample import inbetween, trained_model
 
 RESULTS = pathlib.Path(__file__).resolve().parent.parent / "lafan1_cpu"
 MODEL = RESULTS / "scratch/models/height32"
@@ -47,7 +50,7 @@ def model():
 
 
 def _samples_end_on_the_keyframes_and_differ(model):
-    take = bvh.load(sample.sample_files(["subject5"])[0])
+    take = bvh.load(bundled.sample_files(["subject5"])[0])
     start, target = take[99:101], take[130:132]  # keyframes 100 and 130: L = 29
     samples = inbetween.inbetween(model, start, target, 29, num_samples=3, seed=0)
     ends = take[100].global_positions()[0], take[130].global_positions()[0]
@@ -109,7 +112,7 @@ def test_the_recipe_config_is_the_config_of_the_from_scratch_recipe_model(recipe
 
 
 def test_committed_model_beats_interpolation_on_the_bundled_test_windows(model):
-    windows, stats = lafan1.test_windows(sample.sample_dir()), lafan1.train_statistics(sample.sample_dir())
+    windows, stats = lafan1.test_windows(bundled.sample_dir()), lafan1.train_statistics(bundled.sample_dir())
     methods = {"model": evaluate.model_method(model), "interp": evaluate.BASELINE_METHODS["interp"]}
     out = evaluate.evaluate_protocol(methods, windows, stats, lengths=(30, 50), samples=4, progress=False)
     for length, entry in out["lengths"].items():
@@ -152,7 +155,7 @@ def _prior_kl_pair_on_the_bundled_windows(posterior_path, none_path, step: int) 
     assert dataclasses.replace(none.config.loss, prior_kl_weight=0.02) == posterior.config.loss
     assert none.config.train == posterior.config.train
     _samples_end_on_the_keyframes_and_differ(posterior)
-    windows, stats = lafan1.test_windows(sample.sample_dir()), lafan1.train_statistics(sample.sample_dir())
+    windows, stats = lafan1.test_windows(bundled.sample_dir()), lafan1.train_statistics(bundled.sample_dir())
     methods = {"posterior": evaluate.model_method(posterior), "none": evaluate.model_method(none),
                "interp": evaluate.BASELINE_METHODS["interp"]}
     out = evaluate.evaluate_protocol(methods, windows, stats, lengths=(30, 50), samples=4, progress=False)

@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from stitchjax import bvh, sample
+from stitchjax.data import bvh, bundled
 
 REPO = pathlib.Path(__file__).resolve().parent.parent.parent
 SCRIPT = REPO / "results" / "placed_target.py"
@@ -24,7 +24,7 @@ def test_speed_jumps_and_mid_frames():
 
 @pytest.mark.slow
 def test_placed_target_script_on_a_tiny_model(tiny_run, tmp_path):
-    data = sample.sample_dir()
+    data = bundled.sample_dir()
     out = tmp_path / "out"
     proc = subprocess.run([sys.executable, str(SCRIPT), "--checkpoint", str(tiny_run), "--data", str(data),
                            "--start-bvh", "walk4_subject1.bvh.gz", "--start-frame", "100",

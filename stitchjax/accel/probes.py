@@ -11,7 +11,7 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from stitchjax import networks
+from stitchjax.model import networks
 from stitchjax.accel import tape as tape_lib
 from stitchjax.accel.matmul import matmul
 

@@ -16,7 +16,7 @@ array per matmul. Taped, the rollout runs twice instead:
    own cotangent: these are the output gradients dy of the after-scan kernel gradients x^T dy, so no zero
    probes are needed.
 
-Same gradients as plain autodiff (tests/test_rollout.py); the bytes copied and stacked per train step are
+Same gradients as plain autodiff (tests/model/test_rollout.py); the bytes copied and stacked per train step are
 in benchmarks/README.md.
 """
 from __future__ import annotations

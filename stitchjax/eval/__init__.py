@@ -1,0 +1,1 @@
+"""Evaluation: metrics, baselines, the official and diversity protocols, tables and figures."""

@@ -1,0 +1,489 @@
+"""Networks (flax.linen, pure init/apply): the S-CVAE generator and the LSGAN discriminators.
+
+Size (~420 lines): one job, the paper's networks; the generator's parts (encoders, posterior, prior heads,
+latent interpolation, gated experts) each stay a small named module here so one file shows the whole step.
+
+Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step::
+
+    state (S) ──► state encoder  (3 FC) ─┐
+    offset (J*4+3 [+1]) ► offset encoder (3 FC) ─┼─ concat ─► LSTM cell ─► h ─┬─► FC ─► (mu, logvar)   current
+    target (S) ─► target encoder (3 FC) ─┘                                    └─► FC ─► (mu_t, logvar_t) target
+    latent interpolation (Eq. 1): prior p = N((1-g) mu + g mu_t, sigma_g^2)
+    posterior (training, model.posterior="next_frame"): q = N(mu_q, sigma_q^2) from [h, ground-truth next frame]
+    z = mu + sigma * eps from q at training, from p at inference (and always with posterior "none")
+    decoder: [z, state, target (, h)] ─► mixture of E experts (gating MLP on the phase features), z also fed
+             to every later layer ─► (root velocity 3, quaternion update J*4, contact logits C)
+
+The expert blend mixes each layer's expert *outputs* (``einsum`` over the expert axis), never a blended
+weight matrix per example.
+
+The layers are plain flax modules (``Dense``, ``LSTMCell``, ``MoEDense``; ``model.matmul_dtype`` sets their
+matmuls' operand precision, ``accel.matmul``). The generator takes its layer classes as module attributes
+(``dense``, ``lstm_cell``, ``moe_dense``), as flax's ResNet takes ``conv``: the training step's fast paths swap
+in layers with the same parameters that also probe and tape (``stitchjax.accel``).
+
+Discriminators (RMIB style): a temporal convolution whose kernel spans the whole window (2 or 10 frames)
+over per-frame features, then dense layers; one score per window position.
+
+Sizes and switches come as frozen specs, not the Config: :class:`GeneratorSpec` and :class:`DiscriminatorSpec`
+(:class:`ModelSpec` holds both), built once by :func:`model_spec` where training starts or a model is loaded.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+from typing import Any
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+
+from stitchjax.data import features
+from stitchjax.accel.matmul import elu, matmul
+from stitchjax.config import CHOICES
+
+__all__ = [
+    "Dense", "LSTMCell", "MLP", "MoEDense", "GeneratorSpec", "generator_spec", "DiscriminatorSpec",
+    "discriminator_spec", "ModelSpec", "model_spec", "Generator", "Posterior", "LatentMLP", "decode",
+    "sample_latent", "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry",
+    "blend_gaussians", "disc_feature_dim", "phase_dim", "generator_input_dims",
+]
+
+_ACTIVATION_FUNCTIONS = {"elu": elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
+                         "leaky_relu": lambda x: nn.leaky_relu(x, 0.2), "tanh": jnp.tanh}
+# The allowed names are config.CHOICES' (one list); every one of them must have a function here.
+_ACTIVATIONS = {name: _ACTIVATION_FUNCTIONS[name] for name in CHOICES[("model", "activation")]}
+
+
+# What a layer may apply to its matmul output: the activations, and the identity / softmax of output layers.
+LAYER_FUNCTIONS = {**_ACTIVATIONS, "identity": lambda y: y, "softmax": lambda y: jax.nn.softmax(y, axis=-1)}
+
+ModuleDef = Any  # a flax module class (or a functools.partial of one)
+
+
+def _joined(x):
+    """A layer input given as a tuple of parts (..., in_i) joined along the last axis; x itself otherwise."""
+    return jnp.concatenate(x, axis=-1) if isinstance(x, (tuple, list)) else x
+
+
+class Dense(nn.Module):
+    """Dense layer x (..., in) -> activation(x @ kernel + bias) (..., features), flax ``nn.Dense``
+    initialisation and parameter names; x may be a tuple of parts, joined along the last axis.
+
+    activation: a ``model.activation`` name, "identity" or "softmax" (over the features);
+    matmul_dtype: the operands' precision (``accel.matmul.matmul``).
+    """
+
+    features: int
+    matmul_dtype: str = "float32"
+    activation: str = "identity"
+
+    @nn.compact
+    def __call__(self, x):
+        x = _joined(x)
+        kernel = self.param("kernel", nn.initializers.lecun_normal(), (x.shape[-1], self.features))
+        bias = self.param("bias", nn.initializers.zeros, (self.features,))
+        return LAYER_FUNCTIONS[self.activation](matmul(x, kernel, self.matmul_dtype) + bias)
+
+
+def orthogonal_blocks(key, shape, dtype=jnp.float32):
+    """(H, n * H) kernel made of n independent orthogonal (H, H) blocks (one per LSTM gate)."""
+    rows, cols = shape
+    keys = jax.random.split(key, cols // rows)
+    return jnp.concatenate([nn.initializers.orthogonal()(k, (rows, rows), dtype) for k in keys], axis=1)
+
+
+class LSTMCell(nn.Module):
+    """LSTM cell with fused gate kernels: carry (c, h) each (..., H), x (..., in) -> (carry, h).
+
+    x may be a tuple of parts, joined along the last axis.
+    gates = x @ input_kernel (in, 4H) + h @ hidden_kernel (H, 4H) + bias (4H), gate order i, f, g, o;
+    c' = sigmoid(f) c + sigmoid(i) tanh(g), h' = sigmoid(o) tanh(c'). Initialisation as flax's LSTM
+    cells (LeCun normal input kernel, orthogonal hidden kernel per gate, zero bias). Two matmuls per
+    step and no per-gate concatenation inside the rollout's scan.
+    """
+
+    features: int
+    matmul_dtype: str = "float32"
+
+    @nn.compact
+    def __call__(self, carry, x):
+        c, h = carry
+        x = _joined(x)
+        hidden = self.features
+        input_kernel = self.param("input_kernel", nn.initializers.lecun_normal(), (x.shape[-1], 4 * hidden))
+        hidden_kernel = self.param("hidden_kernel", orthogonal_blocks, (hidden, 4 * hidden))
+        bias = self.param("bias", nn.initializers.zeros, (4 * hidden,))
+        gates = matmul(x, input_kernel, self.matmul_dtype) + matmul(h, hidden_kernel, self.matmul_dtype) + bias
+        i, f, g, o = (fn(gate) for fn, gate in zip((jax.nn.sigmoid, jax.nn.sigmoid, jnp.tanh, jax.nn.sigmoid),
+                                                  jnp.split(gates, 4, axis=-1)))
+        c = f * c + i * g
+        h = o * jnp.tanh(c)
+        return (c, h), h
+
+
+class MLP(nn.Module):
+    """Dense layers of the given widths; activation after every layer but (optionally) the last, which then
+    applies ``last_activation``."""
+
+    widths: tuple
+    activation: str = "elu"
+    activate_last: bool = True
+    matmul_dtype: str = "float32"
+    last_activation: str = "identity"  # the last layer's, without activate_last ("softmax": gating)
+    dense: ModuleDef = Dense
+
+    @nn.compact
+    def __call__(self, x):
+        for i, width in enumerate(self.widths):
+            last = i == len(self.widths) - 1
+            activation = self.last_activation if last and not self.activate_last else self.activation
+            x = self.dense(width, self.matmul_dtype, activation, name=f"dense_{i}")(x)
+        return x
+
+
+# The experts' kernels (in, E, out): LeCun normal per expert (fan in = in).
+expert_init = nn.initializers.variance_scaling(1.0, "fan_in", "truncated_normal", in_axis=0, out_axis=-1,
+                                               batch_axis=(1,))
+
+
+class MoEDense(nn.Module):
+    """Dense layer of E experts blended by per-example coefficients, then ``activation``.
+
+    x (..., in), coefficients (..., E) -> (..., out) = activation(sum_e c_e (x @ W_e + b_e)). The kernel is
+    stored as (in, E, out), so all experts' outputs come from one plain 2-D matmul x @ kernel.reshape(in, E*out)
+    followed by the weighted sum over experts. That equals using the blended weights sum_e c_e W_e, never
+    materialises a per-example weight matrix, and (unlike a 3-D einsum) leaves XLA no weight-sized
+    transposes to do inside the rollout's scan: the train step is ~16-24% faster on a CPU.
+    x may be a tuple of parts, joined along the last axis.
+    """
+
+    features: int
+    num_experts: int
+    matmul_dtype: str = "float32"
+    activation: str = "identity"
+
+    @nn.compact
+    def __call__(self, x, coefficients):
+        x = _joined(x)
+        kernel = self.param("kernel", expert_init, (x.shape[-1], self.num_experts, self.features))
+        bias = self.param("bias", nn.initializers.zeros, (self.num_experts, self.features))
+        flat = matmul(x, kernel.reshape(kernel.shape[0], -1), self.matmul_dtype)
+        expert_outputs = flat.reshape(flat.shape[:-1] + (self.num_experts, self.features)) + bias
+        return LAYER_FUNCTIONS[self.activation](jnp.einsum("...e,...eo->...o", coefficients, expert_outputs))
+
+
+def blend_gaussians(mu, logvar, mu_t, logvar_t, gamma, mode: str = "std"):
+    """Latent interpolation (paper Eq. 1): blend N(mu, s^2) and N(mu_t, s_t^2) with weight gamma.
+
+    Mean (1-g) mu + g mu_t. mode "std": sigma = (1-g) s + g s_t (Wasserstein-2 geodesic between the
+    diagonal Gaussians); mode "var": sigma^2 = (1-g)^2 s^2 + g^2 s_t^2 (law of (1-g) z + g z_t, independent).
+    Returns (mu_blend, logvar_blend).
+    """
+    mean = (1.0 - gamma) * mu + gamma * mu_t
+    if mode == "std":
+        std = (1.0 - gamma) * jnp.exp(0.5 * logvar) + gamma * jnp.exp(0.5 * logvar_t)
+        return mean, 2.0 * jnp.log(std)
+    if mode == "var":
+        var = (1.0 - gamma) ** 2 * jnp.exp(logvar) + gamma ** 2 * jnp.exp(logvar_t)
+        return mean, jnp.log(var)
+    raise ValueError(f"model.variance_blend={mode!r}: use 'std' or 'var'")
+
+
+def sample_latent(mu, logvar, eps):
+    """Reparameterised draw z = mu + exp(logvar / 2) * eps (eps standard normal, same shape)."""
+    return mu + jnp.exp(0.5 * logvar) * eps
+
+
+@dataclasses.dataclass(frozen=True)
+class GeneratorSpec:
+    """The generator's sizes and switches, resolved once from a Config (:func:`generator_spec`).
+
+    num_joints J, num_contacts C: the state's sizes (S = J*4 + 3 + C); latent_dim, lstm_size,
+    encoder_widths, decoder_widths, gating_widths, num_experts: layer sizes; activation, matmul_dtype;
+    switches of ``config.model``: latent_interpolation (Eq. 1), variance_blend, posterior, decoder_uses_lstm,
+    z_every_layer, phase_modulation, time_to_target_input (one more offset input).
+    """
+
+    num_joints: int
+    num_contacts: int
+    latent_dim: int
+    lstm_size: int
+    encoder_widths: tuple
+    decoder_widths: tuple
+    gating_widths: tuple
+    num_experts: int
+    activation: str
+    matmul_dtype: str
+    latent_interpolation: bool
+    variance_blend: str
+    posterior: str
+    decoder_uses_lstm: bool
+    z_every_layer: bool
+    phase_modulation: bool
+    time_to_target_input: bool
+
+
+def generator_spec(config) -> GeneratorSpec:
+    """The :class:`GeneratorSpec` of a Config (``config.model`` and the joint / contact counts of ``config.data``)."""
+    m = config.model
+    return GeneratorSpec(
+        num_joints=config.data.num_joints, num_contacts=config.data.num_contacts, latent_dim=m.latent_dim,
+        lstm_size=m.lstm_size, encoder_widths=tuple(m.encoder_widths), decoder_widths=tuple(m.decoder_widths),
+        gating_widths=tuple(m.gating_widths), num_experts=m.num_experts, activation=m.activation,
+        matmul_dtype=m.matmul_dtype, latent_interpolation=m.latent_interpolation, variance_blend=m.variance_blend,
+        posterior=m.posterior, decoder_uses_lstm=m.decoder_uses_lstm, z_every_layer=m.z_every_layer,
+        phase_modulation=m.phase_modulation, time_to_target_input=m.time_to_target_input)
+
+
+class Generator(nn.Module):
+    """One S-CVAE step. See the module docstring; ``spec``: :class:`GeneratorSpec` (static, hashable).
+
+    dense, lstm_cell, moe_dense: the layer classes (flax ``ModuleDef``s with the signatures of :class:`Dense`,
+    :class:`LSTMCell`, :class:`MoEDense`); other classes with the same parameters may stand in for them.
+    """
+
+    spec: GeneratorSpec
+    dense: ModuleDef = Dense
+    lstm_cell: ModuleDef = LSTMCell
+    moe_dense: ModuleDef = MoEDense
+
+    @nn.compact
+    def __call__(self, carry, state, target, offset, gamma, phase, eps, next_state=None, use_prior=None):
+        """One step for one example (vmap for batches).
+
+        Args:
+          carry: LSTM carry (c (H,), h (H,)).
+          state, target: (S,) current and target character states.
+          offset: (J*4 + 3 [+ 1]) offset features (+ time to target when model.time_to_target_input).
+          gamma: () latent interpolation weight in [0, 1].
+          phase: (P,) phase features of the current frame (ignored without phase modulation).
+          eps: (latent_dim,) standard normal noise.
+          next_state: (S,) ground-truth state of the frame this step makes (training only) or None. With
+            ``model.posterior="next_frame"`` it feeds the recognition network q(z | h, next_state) and z is
+            drawn from q; None draws z from the prior p (inference).
+          use_prior: optional () bool, with next_state: True draws z from the prior p even so (the posterior
+            q is still computed and returned, for the KL term; ``loss.prior_sample_fraction``).
+        Returns:
+          (new_carry, outputs) with outputs: "velocity" (3,), "rotation_update" (J*4,),
+          "contact_logits" (C,), "mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend"
+          (the prior p), "mu_posterior", "logvar_posterior" (q; equal to the prior's when z came from it)
+          (latent_dim,) each.
+        """
+        m = self.spec
+        latent = m.latent_dim
+        dt = m.matmul_dtype
+        encoder = functools.partial(MLP, tuple(m.encoder_widths), m.activation, matmul_dtype=dt, dense=self.dense)
+        e_state = encoder(name="state_encoder")(state)
+        e_offset = encoder(name="offset_encoder")(offset)
+        e_target = encoder(name="target_encoder")(target)
+        carry, h = self.lstm_cell(m.lstm_size, dt, name="lstm")(carry, (e_state, e_offset, e_target))
+        current_head = self.dense(2 * latent, dt, name="current_head")(h)
+        target_head = self.dense(2 * latent, dt, name="target_head")(h)
+        mu, logvar = current_head[..., :latent], current_head[..., latent:]
+        mu_t, logvar_t = target_head[..., :latent], target_head[..., latent:]
+        if m.latent_interpolation:
+            mu_b, logvar_b = blend_gaussians(mu, logvar, mu_t, logvar_t, gamma, m.variance_blend)
+        else:
+            mu_b, logvar_b = mu, logvar
+        if m.posterior == "next_frame" and next_state is not None:
+            mu_q, logvar_q = Posterior(latent, m.encoder_widths[-1], m.activation, dt, self.dense,
+                                       name="posterior")(h, state, next_state)
+        else:
+            mu_q, logvar_q = mu_b, logvar_b
+        z = sample_latent(mu_q, logvar_q, eps)
+        if use_prior is not None:
+            z = jnp.where(use_prior, sample_latent(mu_b, logvar_b, eps), z)
+
+        y = (z, state, target) + ((h,) if m.decoder_uses_lstm else ())
+        num_out = 3 + m.num_joints * 4 + m.num_contacts
+        y = decode(y, z, phase, m, num_out, self.dense, self.moe_dense)
+        n = m.num_joints * 4
+        outputs = {
+            "velocity": y[..., :3], "rotation_update": y[..., 3:3 + n], "contact_logits": y[..., 3 + n:],
+            "mu": mu, "logvar": logvar, "mu_target": mu_t, "logvar_target": logvar_t,
+            "mu_blend": mu_b, "logvar_blend": logvar_b, "mu_posterior": mu_q, "logvar_posterior": logvar_q,
+        }
+        return carry, outputs
+
+
+class Posterior(nn.Module):
+    """Recognition network q(z | h, next frame): [h, state, next_state - state] -> (mu_q, logvar_q).
+
+    h (H,) LSTM output (it has seen the current frame, the target and their offset); state, next_state (S,).
+    One hidden layer, then a linear head of 2 * latent_dim.
+    """
+
+    latent_dim: int
+    width: int
+    activation: str = "elu"
+    matmul_dtype: str = "float32"
+    dense: ModuleDef = Dense
+
+    @nn.compact
+    def __call__(self, h, state, next_state):
+        x = self.dense(self.width, self.matmul_dtype, self.activation, name="hidden")(
+            (h, next_state, next_state - state))
+        out = self.dense(2 * self.latent_dim, self.matmul_dtype, name="head")(x)
+        return out[..., :self.latent_dim], out[..., self.latent_dim:]
+
+
+def decode(y, z, phase, model_config, num_out: int, dense: ModuleDef = Dense, moe_dense: ModuleDef = MoEDense):
+    """The decoder, called inside :class:`Generator` (with its layer classes ``dense`` and ``moe_dense``):
+    y (in,) or a tuple of parts -> (num_out,).
+
+    Phase modulation: a mixture of E experts per layer (``expert_0``, ...) whose coefficients come from the
+    gating MLP (``gating``) on the phase features; otherwise a plain MLP (``decoder``). With
+    ``model.z_every_layer`` z is concatenated to the input of every layer after the first (MANN / MVAE),
+    so the latent reaches the output through every layer. Parameter names are those of checkpoints
+    written before ``z_every_layer`` existed.
+    """
+    m = model_config
+    widths = tuple(m.decoder_widths) + (num_out,)
+    dt = m.matmul_dtype
+    if not m.phase_modulation:
+        return LatentMLP(widths, m.activation, m.z_every_layer, dt, dense, name="decoder")(y, z)
+    coefficients = MLP(tuple(m.gating_widths) + (m.num_experts,), m.activation, activate_last=False,
+                       matmul_dtype=dt, last_activation="softmax", dense=dense, name="gating")(phase)
+    for i, width in enumerate(widths):
+        if i > 0 and m.z_every_layer:
+            y = (y, z)
+        activation = m.activation if i < len(widths) - 1 else "identity"
+        y = moe_dense(width, m.num_experts, dt, activation, name=f"expert_{i}")(y, coefficients)
+    return y
+
+
+class LatentMLP(nn.Module):
+    """MLP y -> out with z also concatenated to the input of every layer after the first when
+    ``z_every_layer``; no activation after the last layer. Layers are named dense_0, dense_1, ... as in MLP."""
+
+    widths: tuple
+    activation: str = "elu"
+    z_every_layer: bool = True
+    matmul_dtype: str = "float32"
+    dense: ModuleDef = Dense
+
+    @nn.compact
+    def __call__(self, y, z):
+        for i, width in enumerate(self.widths):
+            if i > 0 and self.z_every_layer:
+                y = (y, z)
+            activation = self.activation if i < len(self.widths) - 1 else "identity"
+            y = self.dense(width, self.matmul_dtype, activation, name=f"dense_{i}")(y)
+        return y
+
+
+class Discriminator(nn.Module):
+    """LSGAN discriminator over windows of ``window`` frames.
+
+    features (..., T, F) -> scores (..., T - window + 1): a temporal conv (kernel = window, VALID), then
+    dense layers (leaky ReLU 0.2) to one linear score per window position.
+    """
+
+    window: int
+    widths: tuple = (512, 256)
+
+    @nn.compact
+    def __call__(self, features):
+        lead = features.shape[:-2]
+        x = features.reshape((-1,) + features.shape[-2:])
+        x = nn.Conv(self.widths[0], kernel_size=(self.window,), padding="VALID", name="temporal_conv")(x)
+        x = nn.leaky_relu(x, 0.2)
+        for i, width in enumerate(self.widths[1:]):
+            x = nn.leaky_relu(nn.Dense(width, name=f"dense_{i}")(x), 0.2)
+        x = nn.Dense(1, name="score")(x)[..., 0]
+        return x.reshape(lead + x.shape[-1:])
+
+
+# ---------------------------------------------------------------------------------------------------
+
+
+def phase_dim(spec) -> int:
+    """P = 2 phase features per contact channel (``spec``: a :class:`GeneratorSpec`)."""
+    return 2 * spec.num_contacts
+
+
+def disc_feature_dim(num_joints: int) -> int:
+    """Per-frame discriminator features of J joints: positions relative to the root (J-1)*3 + root velocity 3."""
+    return (num_joints - 1) * 3 + 3
+
+
+@dataclasses.dataclass(frozen=True)
+class DiscriminatorSpec:
+    """The two LSGAN discriminators (:func:`discriminator_spec`): short_window, long_window (frames; paper /
+    RMIB 2 and 10), widths of the temporal conv and dense layers, feature_dim (:func:`disc_feature_dim`)."""
+
+    short_window: int
+    long_window: int
+    widths: tuple
+    feature_dim: int
+
+
+def discriminator_spec(config) -> DiscriminatorSpec:
+    """The :class:`DiscriminatorSpec` of a Config (``config.model.disc_*``, the joint count of ``config.data``)."""
+    m = config.model
+    return DiscriminatorSpec(short_window=m.disc_short_window, long_window=m.disc_long_window,
+                             widths=tuple(m.disc_widths), feature_dim=disc_feature_dim(config.data.num_joints))
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelSpec:
+    """Every network of a model: generator (:class:`GeneratorSpec`, both directions share it) and
+    discriminators (:class:`DiscriminatorSpec`)."""
+
+    generator: GeneratorSpec
+    discriminators: DiscriminatorSpec
+
+
+def model_spec(config) -> ModelSpec:
+    """The :class:`ModelSpec` of a Config: built once where training starts or a model is loaded."""
+    return ModelSpec(generator=generator_spec(config), discriminators=discriminator_spec(config))
+
+
+def generator_input_dims(spec) -> dict:
+    """Sizes of the generator's per-step inputs (one example); ``spec``: a :class:`GeneratorSpec`."""
+    s = features.state_dim(spec.num_joints, spec.num_contacts)
+    offset = spec.num_joints * 4 + 3 + (1 if spec.time_to_target_input else 0)
+    return {"state": s, "target": s, "offset": offset, "phase": phase_dim(spec), "eps": spec.latent_dim}
+
+
+def make_generator(spec) -> Generator:
+    """The generator of a :class:`GeneratorSpec`."""
+    return Generator(spec)
+
+
+def make_discriminator(spec, which: str) -> Discriminator:
+    """The "disc_short" or "disc_long" discriminator of a :class:`DiscriminatorSpec`."""
+    window = spec.short_window if which == "disc_short" else spec.long_window
+    return Discriminator(window=window, widths=tuple(spec.widths))
+
+
+def initial_carry(spec, dtype=jnp.float32):
+    """Zero LSTM carry (c, h) for one example; ``spec``: a :class:`GeneratorSpec`."""
+    zeros = jnp.zeros((spec.lstm_size,), dtype)
+    return (zeros, zeros)
+
+
+def init_params(spec: ModelSpec, key) -> dict:
+    """Fresh parameters {"forward", "backward", "disc_short", "disc_long"} (independent generators) of a
+    :class:`ModelSpec` (:func:`model_spec`). Pure jax code: works under ``jax.jit`` and ``jax.eval_shape``.
+    """
+    g, d = spec.generator, spec.discriminators
+    dims = generator_input_dims(g)
+    generator = make_generator(g)
+    dummy = {name: jnp.zeros((size,), jnp.float32) for name, size in dims.items()}
+
+    def init_generator(k):
+        next_state = dummy["state"] if g.posterior != "none" else None
+        return generator.init(k, initial_carry(g), dummy["state"], dummy["target"], dummy["offset"],
+                              jnp.zeros((), jnp.float32), dummy["phase"], dummy["eps"], next_state)
+
+    k_fwd, k_bwd, k_short, k_long = jax.random.split(key, 4)
+    frames = max(d.long_window, d.short_window)
+    disc_in = jnp.zeros((1, frames, d.feature_dim), jnp.float32)
+    return {
+        "forward": init_generator(k_fwd),
+        "backward": init_generator(k_bwd),
+        "disc_short": make_discriminator(d, "disc_short").init(k_short, disc_in),
+        "disc_long": make_discriminator(d, "disc_long").init(k_long, disc_in),
+    }

@@ -1,0 +1,517 @@
+"""Training: the train state, one jitted train step and the loop.
+
+Size (~490 lines): one job; the schedule (``schedule.py``), which state a run starts from (``resume.py``),
+devices (``parallel.py``), records (``reporting.py``) and validation (``validation.py``) live elsewhere.
+
+Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `train`):
+
+- `TrainState`: step, params {"forward", "backward", "disc_short", "disc_long"}, phase_params (frozen after
+  pretraining), gen_opt_state, disc_opt_state, key (a raw uint32 PRNG key).
+- `create_train_state(config, key, phase_params, mesh)`: initialisation inside `jax.jit`; the same function
+  under `jax.eval_shape` gives the abstract state a checkpoint is restored onto.
+- `make_train_step(config, mesh)` -> `train_step(state, dataset, length) -> (state, metrics)`, jitted with the
+  state donated. The whole training set lives on the device(s) as arrays with a leading window axis; each
+  step draws its batch indices on device from `fold_in(state.key, state.step)`, gathers the windows, runs ONE
+  rollout per generator (inside `losses.generator_loss`), and updates both generators and both
+  discriminators with separate AdamW optimisers. `length` (the transition length) is a traced int32, so
+  the progressive schedule never recompiles.
+- `schedule.transition_length(step, steps_per_epoch, train_config)`: the progressive length (stitchjax.train.schedule).
+- `train(config, workdir, ...)`: `resume.restore_or_init` (resume from the newest good checkpoint, start from
+  another run with `init_from`, or pretrain the phase network and initialise), `run_loop` (progress bar, metrics JSON lines, periodic checkpoints, NaN
+  guard, Ctrl-C / SIGTERM save), then `finish` (report.md and loss_curves.png).
+
+Devices, sharding and multi-host start-up: `stitchjax.parallel` (the same code runs on 1 CPU, 1 GPU, several
+GPUs or a TPU slice). With several processes, process 0 alone writes metrics, the report and the progress
+bar; orbax coordinates the checkpoint writes of all processes.
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import signal
+import time
+from typing import Any, Callable
+
+import flax.struct
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+from jax.sharding import Mesh
+from tqdm.auto import tqdm
+
+from stitchjax import checkpoints
+from stitchjax.data import datasets
+from stitchjax.train import resume, schedule
+from stitchjax import config as config_lib
+from stitchjax import parallel, specs
+from stitchjax.data import features, phase
+from stitchjax.model import losses, networks
+from stitchjax.eval import plots
+from stitchjax.train import reporting
+from stitchjax.data import windows as windows_lib
+
+GENERATORS = ("forward", "backward")
+DISCRIMINATORS = ("disc_short", "disc_long")
+
+
+class TrainingError(RuntimeError):
+    """Training cannot go on (bad data, bad config, non-finite loss)."""
+
+
+class NonFiniteLossError(TrainingError):
+    """A loss term became NaN or infinite; the message names the term and the step."""
+
+
+class TrainState(flax.struct.PyTreeNode):
+    """Everything a training run needs to continue, as one pytree (what a checkpoint holds).
+
+    step: int32 scalar, number of updates done. params: {"forward", "backward", "disc_short", "disc_long"}.
+    phase_params: pretrained phase network (not updated by train_step; None-free pytree, may be {}).
+    gen_opt_state / disc_opt_state: AdamW states over {"forward","backward"} / {"disc_short","disc_long"}.
+    key: uint32 (2,) PRNG key; step n uses fold_in(key, n), so resuming replays the same randomness.
+    """
+
+    step: jax.Array
+    params: dict
+    phase_params: Any
+    gen_opt_state: Any
+    disc_opt_state: Any
+    key: jax.Array
+
+
+# ------------------------------------------------------------------------------------------ optimisers
+
+
+def make_optimizer(train_config) -> optax.GradientTransformation:
+    """AdamW with the paper's settings (lr 1e-4, b1 0.5, b2 0.9, weight decay 1e-5 by default)."""
+    return optax.adamw(
+        learning_rate=train_config.learning_rate,
+        b1=train_config.adam_b1,
+        b2=train_config.adam_b2,
+        weight_decay=train_config.weight_decay,
+    )
+
+
+def split_params(params: dict) -> tuple[dict, dict]:
+    """{"forward","backward","disc_short","disc_long"} -> (generators, discriminators)."""
+    return {k: params[k] for k in GENERATORS}, {k: params[k] for k in DISCRIMINATORS}
+
+
+def create_train_state(config, key: jax.Array, phase_params: Any = None, mesh: Mesh | None = None) -> TrainState:
+    """Fresh state (step 0): networks initialised from `key`, optimiser states zero, replicated on `mesh`.
+
+    phase_params: pretrained phase network params, or None to initialise it randomly (phase.init_phase_params)
+    — the value when phase modulation is off, and the structure used for restoring.
+    """
+    optimizer = make_optimizer(config.train)
+    mesh = parallel.make_mesh() if mesh is None else mesh
+    init_key, phase_key, state_key = jax.random.split(key, 3)
+    spec = networks.model_spec(config)
+
+    def init(init_key, phase_key, state_key, phase_params):
+        params = networks.init_params(spec, init_key)
+        if phase_params is None:
+            phase_params = init_phase_params(config, phase_key)
+        generators, discriminators = split_params(params)
+        return TrainState(
+            step=jnp.zeros((), jnp.int32),
+            params=params,
+            phase_params=phase_params,
+            gen_opt_state=optimizer.init(generators),
+            disc_opt_state=optimizer.init(discriminators),
+            key=state_key,
+        )
+
+    return jax.jit(init, out_shardings=parallel.replicated(mesh))(init_key, phase_key, state_key, phase_params)
+
+
+def init_phase_params(config, key: jax.Array) -> Any:
+    """Randomly initialised phase network params ({} when the model does not use one)."""
+    return phase.init_phase_params(key, state_dim(config), config.phase)
+
+
+def state_dim(config) -> int:
+    """Per-frame character state size J*4 + 3 + C (local quats, root velocity, contacts)."""
+    return features.state_dim(config)
+
+
+def abstract_train_state(config, mesh: Mesh | None = None) -> TrainState:
+    """ShapeDtypeStructs (with replicated shardings) of the train state: the target for `restore`."""
+    mesh = parallel.make_mesh() if mesh is None else mesh
+    shapes = jax.eval_shape(lambda key: create_train_state(config, key, None, mesh), jax.random.PRNGKey(0))
+    sharding = parallel.replicated(mesh)
+    return jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), shapes)
+
+
+# ---------------------------------------------------------------------------------------- train step
+
+
+def make_sampler(config, mesh: Mesh | None = None, window: int | None = None):
+    """Jitted `sample(dataset, key, step) -> batch`: the batch of step `step`, drawn on device.
+
+    Uses fold_in(key, step) split in 3 (batch, generator noise, discriminator noise), as the update does.
+    """
+    mesh = parallel.make_mesh() if mesh is None else mesh
+    batch_size = config.train.batch_size
+
+    draw = None
+    if config.data.random_starts:  # any frame starts a window: cut from the carried windows (features.py)
+        def draw(data, key, n):
+            return features.random_start_batch(data, key, n, config.data.window, windows_lib.FACING_FRAME)
+
+    def sample(dataset, key, step):
+        batch_key = jax.random.split(jax.random.fold_in(key, step), 3)[0]
+        return parallel.sample_batch(dataset, batch_key, batch_size, mesh, window, draw)
+
+    return jax.jit(sample)
+
+
+def make_update_step(config, mesh: Mesh | None = None,
+                     generator_loss: Callable | None = None, discriminator_loss: Callable | None = None):
+    """Jitted `update(state, batch, length) -> (state, metrics)`: one update of all four networks.
+
+    batch: dict of (B, T, ...) arrays (batch axis sharded over the mesh). ONE rollout per generator
+    (inside `generator_loss`, whose third output, when present, is handed to `discriminator_loss`). Both
+    losses take the step's `specs.TrainSpec`, resolved here once from `config`.
+    The state is donated: do not use the old state after the call.
+    """
+    takes_kl_scale = generator_loss is None  # the default loss takes the KL warm-up factor
+    generator_loss = generator_loss or losses.generator_loss
+    discriminator_loss = discriminator_loss or losses.discriminator_loss
+    mesh = parallel.make_mesh() if mesh is None else mesh
+    optimizer = make_optimizer(config.train)
+    spec = specs.train_spec(config)
+    tc, kl_warmup_steps = config.train, config.loss.kl_warmup_steps  # the update reads no other setting
+
+    def update(state: TrainState, batch: dict, length: jax.Array):
+        key = jax.random.fold_in(state.key, state.step)
+        _, gen_key, disc_key = jax.random.split(key, 3)
+        generators, discriminators = split_params(state.params)
+
+        extra = {}
+        if takes_kl_scale:
+            extra["kl_scale"] = losses.kl_warmup(state.step, kl_warmup_steps)
+
+        def gen_objective(gen_params):
+            out = generator_loss({**gen_params, **discriminators}, state.phase_params, batch, gen_key,
+                                 spec, length, **extra)
+            loss, terms = out[0], out[1]
+            aux = out[2] if len(out) > 2 else None
+            return loss, (terms, aux)
+
+        (gen_loss, (gen_terms, aux)), gen_grads = jax.value_and_grad(gen_objective, has_aux=True)(generators)
+
+        def disc_objective(disc_params):
+            params = {**jax.lax.stop_gradient(generators), **disc_params}
+            extra = () if aux is None else (jax.lax.stop_gradient(aux),)
+            out = discriminator_loss(params, state.phase_params, batch, disc_key, spec, length, *extra)
+            return out[0], out[1]
+
+        (disc_loss, disc_terms), disc_grads = jax.value_and_grad(disc_objective, has_aux=True)(discriminators)
+
+        gen_updates, gen_opt_state = optimizer.update(gen_grads, state.gen_opt_state, generators)
+        disc_updates, disc_opt_state = optimizer.update(disc_grads, state.disc_opt_state, discriminators)
+        if tc.lr_decay_to != 1.0:  # AdamW's update is linear in the learning rate: scale it
+            lr_factor = schedule.learning_rate_factor(state.step, tc)
+            gen_updates = jax.tree.map(lambda u: u * lr_factor, gen_updates)
+            disc_updates = jax.tree.map(lambda u: u * lr_factor, disc_updates)
+        new_params = {**optax.apply_updates(generators, gen_updates),
+                      **optax.apply_updates(discriminators, disc_updates)}
+        metrics = {"loss": gen_loss, "disc_loss": disc_loss}
+        metrics.update({name: value for name, value in gen_terms.items() if name not in metrics})
+        metrics.update({(name if name not in metrics else f"disc_{name}"): value
+                        for name, value in disc_terms.items()})
+        metrics["gen_grad_norm"] = optax.tree.norm(gen_grads)
+        metrics["disc_grad_norm"] = optax.tree.norm(disc_grads)
+        metrics = {name: jnp.asarray(value, jnp.float32) for name, value in metrics.items()}
+        metrics["length"] = jnp.asarray(length, jnp.int32)
+        if tc.lr_decay_to != 1.0:
+            metrics["lr"] = tc.learning_rate * lr_factor
+        new_state = state.replace(step=state.step + 1, params=new_params, gen_opt_state=gen_opt_state,
+                                  disc_opt_state=disc_opt_state)
+        return new_state, metrics
+
+    rep = parallel.replicated(mesh)
+    return jax.jit(update, donate_argnums=(0,), out_shardings=(rep, rep))
+
+
+def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
+                    generator_loss: Callable | None = None, discriminator_loss: Callable | None = None):
+    """`train_step(state, dataset, length) -> (state, metrics)`: draw the step's batch on device, update.
+
+    dataset: dict of (N, T, ...) arrays from `parallel.shard_dataset`. length: int32 transition length (traced).
+    window: frames per training window the losses see (static; None = the dataset's T). Metrics: the
+    generator "loss", "disc_loss", every term of both, "length", gradient norms; float32 scalars.
+    Two jitted calls (sampler, then update): keeping the gather out of the update's program was measured
+    to make its compilation several times faster on CPU. The state is donated.
+    """
+    mesh = parallel.make_mesh() if mesh is None else mesh
+    sample = make_sampler(config, mesh, window)
+    update = make_update_step(config, mesh, generator_loss, discriminator_loss)
+
+    def train_step(state: TrainState, dataset: dict, length):
+        return update(state, sample(dataset, state.key, state.step), length)
+
+    train_step.sample, train_step.update = sample, update
+    return train_step
+
+
+def check_finite(metrics: dict, step: int) -> None:
+    """Raise NonFiniteLossError naming the first non-finite metric (loss term) at `step`."""
+    for name, value in metrics.items():
+        if not np.all(np.isfinite(value)):
+            raise NonFiniteLossError(
+                f"loss term '{name}' is {float(np.asarray(value))} at step {step}: training stopped; the "
+                "last good checkpoint is kept (lower train.learning_rate or check the data, then resume)")
+
+
+# ---------------------------------------------------------------------------------------------- data
+
+
+def pretrain_phase_params(config, dataset: dict, key: jax.Array):
+    """Pretrain the phase network on every frame of the training windows (and, with
+    ``phase.include_reversed``, of the same windows played backwards); (params, final_loss)."""
+    states = np.asarray(features.dataset_states(dataset, config.data.velocity_scale))
+    states = states.reshape(-1, states.shape[-1])
+    labels = np.asarray(dataset["phase"]).reshape(states.shape[0], -1)
+    if config.phase.include_reversed:  # the backward generator's states: time-reversed windows
+        reversed_windows = reverse_time(dataset)
+        rev_states = np.asarray(features.dataset_states(reversed_windows, config.data.velocity_scale))
+        rev_labels = phase.phase_labels(reversed_windows["contacts"], config.data.fps, config.phase)
+        states = np.concatenate([states, rev_states.reshape(-1, states.shape[-1])])
+        labels = np.concatenate([labels, np.asarray(rev_labels, np.float32).reshape(rev_states.shape[0] *
+                                                                                    rev_states.shape[1], -1)])
+    return phase.pretrain_phase(key, states, labels, config.phase)
+
+
+def reverse_time(dataset: dict) -> dict:
+    """The windows played backwards: "rotations", "root_positions", "contacts" with the time axis reversed."""
+    return {name: np.asarray(dataset[name])[:, ::-1] for name in ("rotations", "root_positions", "contacts")}
+
+
+# ------------------------------------------------------------------------------------------------ loop
+
+
+class _StopFlag:
+    """Turns the first SIGINT / SIGTERM into a request to save and stop; a second one interrupts."""
+
+    def __init__(self):
+        self.requested = None
+        self._previous = {}
+
+    def __enter__(self):
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            try:
+                self._previous[sig] = signal.signal(sig, self._handle)
+            except ValueError:  # not the main thread: no signal handling
+                pass
+        return self
+
+    def _handle(self, signum, frame):
+        if self.requested is not None:
+            raise KeyboardInterrupt
+        self.requested = signal.Signals(signum).name
+
+    def __exit__(self, *exc):
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        return False
+
+
+def _fresh_state(config, dataset: dict, mesh: Mesh) -> TrainState:
+    """Step 0 from train.seed, with the phase network pretrained on `dataset` when the model uses one."""
+    key = jax.random.PRNGKey(config.train.seed)
+    phase_params = None
+    if config.model.phase_modulation:
+        phase_params, phase_loss = pretrain_phase_params(config, dataset, jax.random.fold_in(key, 1))
+        if jax.process_index() == 0:
+            print(f"phase network pretrained: final loss {float(phase_loss):.4g}")
+    return create_train_state(config, key, phase_params, mesh)
+
+
+class _Saver:
+    """`saver(step, state)` writes a checkpoint with the run's config and extras; `saver.last`: the last
+    step saved (or restored from), None before any."""
+
+    def __init__(self, manager, config_json: dict, extras: dict, last: int | None):
+        self.manager, self.config_json, self.extras, self.last = manager, config_json, extras, last
+
+    def __call__(self, step: int, state: TrainState) -> None:
+        checkpoints.save(self.manager, step, state, self.config_json, self.extras)
+        self.last = step
+
+
+def _step_for_length(config, mesh: Mesh) -> Callable:
+    """`step_for(length)`: the train step for transition length `length` (one compiled step per window)."""
+    steps: dict = {}
+
+    def step_for(length: int):
+        window = schedule.bucket_window(length, config.train)
+        if window not in steps:
+            steps[window] = make_train_step(config, mesh, window)
+        return steps[window]
+
+    return step_for
+
+
+def run_loop(state: TrainState, device_data: dict, step_for: Callable, plan: schedule.RunPlan, train_config,
+             log: reporting.MetricsLog, saver: _Saver, bar, t_start: float,
+             validate: Callable | None = None) -> tuple[TrainState, dict]:
+    """Train from `state.step` to `plan.max_steps`, or until the first SIGINT / SIGTERM.
+
+    Logs the means over each `train.log_every` steps (time_s: seconds since `t_start`), every
+    `train.eval_every` steps also `validate(state)` (a record of its own; its time is not counted in
+    windows_per_s), saves every
+    `plan.checkpoint_every` steps (not the last: the caller saves it), advances `bar` (tqdm or None).
+    Returns (state, {"start_step", "step", "length", "stop_reason", "compile_s"}); compile_s: the first
+    step's seconds. Raises NonFiniteLossError at a NaN / inf metric.
+    """
+    tc = train_config
+    start_step = step = int(state.step)
+    stop_reason = "reached max_steps"
+    compile_s = 0.0
+    t_log, windows_since_log = time.perf_counter(), 0
+    length = schedule.transition_length(step, plan.steps_per_epoch, tc)
+    interval_sums, interval_count = {}, 0  # metrics are logged as means over the logging interval
+    with _StopFlag() as stop:
+        while step < plan.max_steps:
+            length = schedule.transition_length(step, plan.steps_per_epoch, tc)
+            t0 = time.perf_counter()
+            state, metrics = step_for(length)(state, device_data, jnp.int32(length))
+            metrics = jax.device_get(metrics)
+            check_finite(metrics, step + 1)
+            for name, value in metrics.items():
+                interval_sums[name] = interval_sums.get(name, 0.0) + float(value)
+            interval_count += 1
+            if step == start_step:
+                compile_s = time.perf_counter() - t0
+                t_log, windows_since_log = time.perf_counter(), 0
+            else:
+                windows_since_log += tc.batch_size
+            step += 1
+            if step % tc.log_every == 0 or step == plan.max_steps:
+                now = time.perf_counter()
+                rate = windows_since_log / max(now - t_log, 1e-9)
+                record = {"step": step, **{k: v / interval_count for k, v in interval_sums.items()},
+                          "length": int(length), "epoch": step / plan.steps_per_epoch,
+                          "windows_per_s": rate, "time_s": now - t_start}
+                log.write(record)
+                t_log, windows_since_log = now, 0
+                interval_sums, interval_count = {}, 0
+                if bar is not None:
+                    bar.set_postfix(loss=f"{record['loss']:.4g}", L=length, win_s=f"{rate:.0f}")
+            if validate is not None and step % tc.eval_every == 0:
+                t_val = time.perf_counter()
+                log.write({"step": step, **validate(state), "time_s": time.perf_counter() - t_start})
+                t_log += time.perf_counter() - t_val
+            if bar is not None:
+                bar.update(1)
+            if step % plan.checkpoint_every == 0 and step != plan.max_steps:
+                saver(step, state)
+            if stop.requested:
+                stop_reason = f"{stop.requested} received"
+                break
+    return state, {"start_step": start_step, "step": step, "length": int(length), "stop_reason": stop_reason,
+                   "compile_s": compile_s}
+
+
+def _close(bar, manager) -> None:
+    if bar is not None:
+        bar.close()
+    checkpoints.close(manager)
+
+
+def finish(workdir: pathlib.Path, config_name: str, outcome: dict, num_windows: int, train_config,
+           t_begin: float, t_start: float) -> dict:
+    """The run's summary (`outcome` of `run_loop` with timings in seconds since `t_begin` / `t_start`);
+    process 0 adds the final record and writes report.md and loss_curves.png."""
+    wall = time.perf_counter() - t_start
+    timed = max(outcome["step"] - outcome["start_step"] - 1, 0)
+    summary = {
+        "step": outcome["step"], "start_step": outcome["start_step"],
+        "steps_run": outcome["step"] - outcome["start_step"], "wall_s": wall, "setup_s": t_start - t_begin,
+        "compile_s": outcome["compile_s"], "stop_reason": outcome["stop_reason"], "length": outcome["length"],
+        "windows_per_s": (timed * train_config.batch_size / max(wall - outcome["compile_s"], 1e-9)
+                          if timed else 0.0),
+        "devices": f"{jax.device_count()} x {jax.devices()[0].platform}",
+        "num_windows": num_windows, "batch_size": train_config.batch_size, "workdir": str(workdir),
+        "log_every": train_config.log_every,
+    }
+    if jax.process_index() == 0:
+        records = reporting.read_metrics(workdir / "metrics.jsonl")
+        summary["final"] = next((r for r in reversed(records) if "loss" in r), {})  # not a validation record
+        reporting.write_report(workdir, config_name or "config", records, summary)
+        if records:
+            plots.loss_curves(records, path=workdir / "loss_curves.png")
+    return summary
+
+
+def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | None = None,
+          max_steps: int | None = None, config_name: str = "", progress: bool = True,
+          dataset: dict | None = None, stats: Any = None, train_step: Callable | None = None,
+          mesh: Mesh | None = None, init_from: str | os.PathLike | None = None,
+          make_validator: Callable | None = None) -> dict:
+    """Train (or resume) a run in `workdir` until step `max_steps` (default: `total_steps`).
+
+    init_from: a run folder to start a new `workdir` from (fine-tuning with other loss / train settings;
+    ignored once `workdir` has checkpoints of its own). make_validator: with ``train.eval_every`` > 0,
+    ``make_validator(config, data_dir, stats_json, skeleton_facts) -> validate(state) -> record``
+    (``stitchjax.eval.validation.make_validator``; bin/train passes it).
+
+    dataset/stats: pass prepared arrays to skip loading (tests, notebooks); otherwise they are loaded from
+    `data_dir` (None = the bundled LAFAN1 sample). train_step: a replacement step function (tests).
+    Returns a summary dict (step, losses, wall time, stop_reason). Raises NonFiniteLossError on NaN/inf.
+    """
+    t_begin = time.perf_counter()
+    workdir = pathlib.Path(workdir).expanduser().resolve()
+    workdir.mkdir(parents=True, exist_ok=True)
+    mesh = parallel.make_mesh() if mesh is None else mesh
+    if dataset is None:
+        dataset, stats = datasets.load_training_data(config, data_dir)
+    num_windows = int(next(iter(dataset.values())).shape[0])
+    if num_windows == 0:
+        raise TrainingError("no training windows: check --data and config.data (window length, subjects)")
+    local = parallel.local_windows_slice(num_windows)
+    device_data = parallel.shard_dataset({k: v[local] for k, v in dataset.items()}, mesh)
+    plan = schedule.plan_run(num_windows, config.train, max_steps)
+
+    manager = checkpoints.open_manager(workdir, max_to_keep=config.train.max_to_keep)
+    log = reporting.MetricsLog(workdir / "metrics.jsonl", enabled=jax.process_index() == 0)
+    config_json = config_lib.to_dict(config)
+    try:
+        state, latest = resume.restore_or_init(config_json, workdir, manager, log, abstract_train_state(config, mesh),
+                                               lambda: _fresh_state(config, dataset, mesh), init_from)
+    except resume.ResumeError as error:
+        raise TrainingError(str(error)) from None
+    extras = {"stats": datasets.stats_to_json(stats), "config_name": config_name,
+              "skeleton": datasets.skeleton_facts(data_dir, config.data)}
+    # the training windows' 99th percentile of horizontal root speed (cm/s): the fastest transition a
+    # placed target may ask for (stitchjax.sample.takes)
+    extras["stats"]["root_speed_p99"] = features.root_speed_percentiles(dataset["root_positions"],
+                                                                        config.data.fps)["p99"]
+    saver = _Saver(manager, config_json, extras, latest)
+    validate = (make_validator(config, data_dir, extras["stats"], extras["skeleton"])
+                if make_validator is not None and config.train.eval_every > 0 else None)
+    step_for = (lambda length: train_step) if train_step is not None else _step_for_length(config, mesh)
+    bar = (tqdm(total=plan.max_steps, initial=int(state.step), unit="step", dynamic_ncols=True)
+           if progress and jax.process_index() == 0 else None)
+    t_start = time.perf_counter()
+    try:
+        state, outcome = run_loop(state, device_data, step_for, plan, config.train, log, saver, bar, t_start,
+                                  validate)
+    except NonFiniteLossError as error:
+        _close(bar, manager)
+        raise NonFiniteLossError(
+            f"{error} (checkpoint kept: {'none' if saver.last is None else f'step {saver.last}'} in "
+            f"{checkpoints.checkpoint_dir(workdir)})") from None
+    except KeyboardInterrupt:  # a second Ctrl-C: the state may be mid-update, so do not save it
+        _close(bar, manager)
+        raise
+    if bar is not None:
+        bar.close()
+    if saver.last != outcome["step"]:
+        saver(outcome["step"], state)
+    checkpoints.close(manager)
+    return finish(workdir, config_name, outcome, num_windows, config.train, t_begin, t_start)

@@ -1,0 +1,250 @@
+"""Foot locking (stitchjax.sample.footlock) on a one-legged synthetic skeleton: IK reach and bone lengths, the
+unreachable case, keyframes, planted feet, flickers and transitions without contacts."""
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from stitchjax.sample import footlock
+from stitchjax import rotations as R
+from stitchjax.skeleton import Skeleton, forward_kinematics
+
+NAMES = ("Hips", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToe")
+PARENTS = (-1, 0, 1, 2, 3)
+OFFSETS = np.array([[0, 0, 0], [10, 0, 0], [0, -40, 0], [0, -40, 0], [0, -5, 10]], np.float64)
+SKELETON = Skeleton(NAMES, PARENTS, OFFSETS)
+FEET = (3, 4)
+
+
+def _about_x(degrees):
+    return np.array([np.cos(np.radians(degrees) / 2), np.sin(np.radians(degrees) / 2), 0, 0])
+
+
+def _pose(frames, knee_degrees=60.0, step=0.5):
+    """(rotations (T, 5, 4), root (T, 3)): the knee bent by knee_degrees (thigh forward, shin back), the
+    root moving ``step`` cm per frame along +Z at a height putting the toe near y = 0."""
+    rotations = np.tile(np.array([1.0, 0, 0, 0]), (frames, 5, 1))
+    rotations[:, 1] = _about_x(-knee_degrees / 2)
+    rotations[:, 2] = _about_x(knee_degrees)
+    rotations[:, 3] = _about_x(-knee_degrees / 2)
+    root = np.zeros((frames, 3))
+    root[:, 2] = step * np.arange(frames)
+    local = np.broadcast_to(OFFSETS, (frames, 5, 3)).copy()
+    local[:, 0] = root
+    root[:, 1] = -forward_kinematics(rotations, local, PARENTS)[1][0, 4, 1]
+    return rotations, root
+
+
+def _global_positions(rotations, root):
+    local = np.broadcast_to(OFFSETS, np.shape(rotations)[:-1] + (3,)).copy()
+    local[..., 0, :] = root
+    return forward_kinematics(np.asarray(rotations, np.float64), local, PARENTS)[1]
+
+
+def _solve(target, knee_degrees=40.0):
+    """Two-bone IK of the synthetic leg to ``target``: the new global positions (5, 3)."""
+    rotations, root = _pose(1, knee_degrees)
+    local = np.broadcast_to(OFFSETS, (1, 5, 3)).copy()
+    local[:, 0] = root
+    g_rot, g_pos = forward_kinematics(rotations, local, PARENTS)
+    g_rot, g_pos = jnp.asarray(g_rot[0], jnp.float32), jnp.asarray(g_pos[0], jnp.float32)
+    hip_turn, knee_turn, _, _, _ = footlock.two_bone_ik(g_pos[1], g_pos[2], g_pos[3], jnp.asarray(target, jnp.float32),
+                                                        jnp.float32(40.0), jnp.float32(40.0))
+    hip = R.quat_mul(hip_turn, g_rot[1])
+    knee = R.quat_mul(knee_turn, R.quat_mul(hip_turn, g_rot[2]))
+    new = np.array(rotations[0])
+    new[1] = np.asarray(R.quat_mul(R.quat_conjugate(g_rot[0]), hip))
+    new[2] = np.asarray(R.quat_mul(R.quat_conjugate(hip), knee))
+    new[3] = np.asarray(R.quat_mul(R.quat_conjugate(knee), g_rot[3]))  # the foot keeps its orientation
+    return _global_positions(new[None], root[:1])[0], g_pos
+
+
+def _bone_lengths(g):
+    return np.linalg.norm(g[..., 1:, :] - g[..., np.array(PARENTS[1:]), :], axis=-1)
+
+
+def test_ik_reaches_a_reachable_target_and_keeps_bone_lengths():
+    _, before = _solve(np.zeros(3))
+    target = np.asarray(before[1]) + np.array([5.0, -60.0, 20.0])  # 64 cm from the hip: reachable (80 cm leg)
+    after, before = _solve(target)
+    assert np.linalg.norm(after[3] - target) < 1e-3
+    np.testing.assert_allclose(_bone_lengths(after), np.linalg.norm(OFFSETS[1:], axis=-1), atol=1e-4)
+    # the knee bends the way it bent (towards +Z, its pole), no flip
+    assert (after[2, 2] - after[1, 2]) * (np.asarray(before)[2, 2] - np.asarray(before)[1, 2]) > 0
+
+
+def test_unreachable_target_leaves_the_leg_straight_not_stretched():
+    _, before = _solve(np.zeros(3))
+    hip = np.asarray(before[1], np.float64)
+    target = hip + np.array([0.0, -120.0, 30.0])  # 124 cm away, the leg is 80
+    after, _ = _solve(target)
+    reach = np.linalg.norm(after[3] - after[1])
+    assert reach <= 80.0 + 1e-3
+    assert reach > 0.98 * 80.0
+    direction = (target - hip) / np.linalg.norm(target - hip)
+    np.testing.assert_allclose((after[3] - after[1]) / reach, direction, atol=1e-3)  # towards the target
+    np.testing.assert_allclose(_bone_lengths(after), np.linalg.norm(OFFSETS[1:], axis=-1), atol=1e-4)
+
+
+def _transition(frames=30, contact=1.0):
+    rotations, root = _pose(frames)
+    contacts = np.full((frames, 2), contact)
+    contacts[0] = contacts[-1] = 0.0  # keyframes not in contact: the span plants at its own first frame
+    return rotations, root, contacts
+
+
+def test_planted_foot_does_not_move_and_keyframes_are_bit_identical():
+    rotations, root, contacts = _transition()
+    out = footlock.lock_feet(jnp.asarray(rotations, jnp.float32), jnp.asarray(root, jnp.float32),
+                             jnp.asarray(contacts, jnp.float32), SKELETON, feet=FEET)
+    planted = np.asarray(out["planted"][:, 0])
+    assert planted.sum() >= 10  # the sliding foot was planted
+    new = np.asarray(out["rotations"])
+    for k in (0, -1):
+        assert np.array_equal(new[k], np.asarray(rotations[k], np.float32))
+    g = _global_positions(new, root)
+    feet = g[planted][:, [3, 4]]  # ankle and toe of every planted frame
+    assert np.abs(feet - feet[0]).max() < 1e-3
+    before = _global_positions(rotations, root)
+    assert np.abs(np.diff(before[planted][:, 3], axis=0)).max() > 0.4  # it slid before
+    np.testing.assert_allclose(_bone_lengths(g), np.broadcast_to(np.linalg.norm(OFFSETS[1:], axis=-1), (30, 4)),
+                               atol=1e-3)
+    # float64 numpy path: keyframes and every joint the pass leaves alone keep their bits
+    local = np.broadcast_to(OFFSETS, rotations.shape[:-1] + (3,)).copy()
+    local[:, 0] = root
+    locked, positions, stats = footlock.lock_transitions(rotations, local, contacts, SKELETON, FEET)
+    assert locked.dtype == np.float64 and positions is not None
+    assert np.array_equal(locked[[0, -1]], rotations[[0, -1]])
+    assert np.array_equal(locked[:, [0, 4]], rotations[:, [0, 4]])
+    assert stats["planted"].shape == (30, 1)
+
+
+def test_no_contacts_and_flickers_leave_the_transition_unchanged():
+    rotations, root, contacts = _transition(contact=0.0)
+    flicker = contacts.copy()
+    flicker[10] = 1.0  # one frame: no span
+    batch = jnp.asarray(np.stack([rotations, rotations]), jnp.float32)
+    roots = jnp.asarray(np.stack([root, root]), jnp.float32)
+    out = jax.jit(lambda r, p, c: footlock.lock_feet(r, p, c, SKELETON, feet=FEET))(
+        batch, roots, jnp.asarray(np.stack([contacts, flicker]), jnp.float32))
+    assert np.array_equal(np.asarray(out["rotations"]), np.asarray(batch))
+    assert np.array_equal(np.asarray(out["root_positions"]), np.asarray(roots))
+    assert not np.asarray(out["planted"]).any() and not np.asarray(out["changed"]).any()
+
+
+def test_spans_hysteresis_and_blend():
+    score = jnp.asarray([0.0, 0.6, 0.4, 0.3, 0.1, 0.6, 0.0, 0.9, 0.9, 0.9, 0.0])
+    on = np.asarray(footlock.hysteresis(score, 0.5, 0.25))
+    assert on.tolist() == [0, 1, 1, 1, 0, 1, 0, 1, 1, 1, 0]
+    kept = np.asarray(footlock.drop_short_spans(jnp.asarray(on), 3))
+    assert kept.tolist() == [0, 1, 1, 1, 0, 0, 0, 1, 1, 1, 0]
+    anchor = jnp.zeros(11, bool).at[jnp.asarray([0, 1, 2, 10])].set(True)
+    offset = jnp.zeros((11, 3)).at[2].set(jnp.asarray([4.0, 0.0, 0.0]))
+    turn = jnp.zeros((11, 4)).at[:, 0].set(1.0)
+    blended, _, weight, arc = footlock.blended_corrections(anchor, offset, turn, blend_frames=4)
+    x = np.asarray(blended[:, 0])
+    assert x[2] == 4.0 and x[10] == 0.0 and x[7] == 0.0
+    assert np.all(np.diff(x[2:8]) <= 0) and 0 < x[4] < 4.0  # eased out over 4 frames
+    assert np.asarray(weight)[2] == 1.0 and np.abs(x[7:]).max() == 0.0
+    assert np.asarray(arc)[2] == 0.0 and 0 < np.asarray(arc)[4] <= 4.0 + 1e-6  # a step: highest mid-ease
+
+
+def test_before_after_figure(tmp_path):
+    import pytest
+
+    from stitchjax.eval import plots
+
+    rotations, root, contacts = _transition()
+    local = np.broadcast_to(OFFSETS, rotations.shape[:-1] + (3,)).copy()
+    local[:, 0] = root
+    locked, _, stats = footlock.lock_transitions(rotations, local, contacts, SKELETON, FEET)
+    before, after = _global_positions(rotations, root), _global_positions(locked, root)
+    fig = plots.foot_lock_before_after(before, after, stats["planted"], FEET, let_go=stats["let_go"],
+                                       leg_names=("left",), dpi=50, path=tmp_path / "f.png")
+    assert tuple(np.round(fig.get_size_inches() * fig.dpi)) == (400, 230)
+    assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
+    with pytest.raises(ValueError, match="planted must be"):
+        plots.foot_lock_before_after(before, after, stats["planted"][:5], FEET)
+
+
+def test_bridge_gaps_fills_short_gaps_between_spans_only():
+    mask = jnp.asarray([0, 1, 1, 0, 1, 1, 0, 0, 0, 1, 0], bool)
+    out = np.asarray(footlock.bridge_gaps(mask, 2)).astype(int).tolist()
+    assert out == [0, 1, 1, 1, 1, 1, 0, 0, 0, 1, 0]  # the 1-frame gap filled, the 3-frame gap and the ends not
+    assert np.array_equal(np.asarray(footlock.bridge_gaps(mask, 0)), np.asarray(mask))
+
+
+def test_plant_at_the_mean_of_the_span():
+    mask = jnp.asarray([0, 0, 1, 1, 1, 1, 0, 0], bool)
+    ankle = jnp.stack([jnp.arange(8.0), jnp.full(8, 5.0), jnp.zeros(8)], -1)
+    rotation = jnp.zeros((8, 4)).at[:, 0].set(1.0)
+    position, _ = footlock.span_targets(mask, ankle, rotation, floor=0.0, plant_at=-1.0)
+    np.testing.assert_allclose(np.asarray(position[2:6, 0]), 3.5)  # mean of frames 2-5
+    np.testing.assert_allclose(np.asarray(position[[0, 1, 6, 7], 0]), [0.0, 1.0, 6.0, 7.0])  # outside: the foot
+
+
+def test_eased_plants_leave_a_plant_at_rest_and_leave_keyframes_alone():
+    n = 16
+    anchor = jnp.zeros(n, bool).at[:6].set(True).at[-1].set(True)
+    free = jnp.zeros(n, bool).at[0].set(True).at[-1].set(True)  # keyframes plant nothing
+    ankle = jnp.stack([3.0 * jnp.arange(n), jnp.zeros(n), jnp.zeros(n)], -1)  # the generated foot skates on
+    target = jnp.where(anchor[:, None], jnp.asarray([3.0, 0.0, 0.0]), ankle)  # planted at frame 1's place
+    identity = jnp.zeros((n, 4)).at[:, 0].set(1.0)
+    offset, turn, weight, _ = footlock.eased_plants(anchor, free, target, identity, ankle, identity, blend_frames=6)
+    foot = np.asarray(ankle + offset)[:, 0]
+    assert np.abs(np.diff(foot[1:6])).max() < 1e-5  # held
+    assert abs(foot[6] - foot[5]) < 1.0  # the first frame after the plant moves little (the skate: 3 cm/frame)
+    assert np.all(np.diff(foot[5:]) >= -1e-5)  # then follows the generated foot, never back
+    np.testing.assert_allclose(np.asarray(offset[-1]), 0.0)  # the keyframe takes no correction
+    np.testing.assert_allclose(np.asarray(offset[13:]), 0.0, atol=1e-6)  # eased out within 6 frames + 1
+    assert float(weight[5]) == 1.0 and float(weight[-1]) == 0.0
+
+
+def test_clearance_lift_steps_a_moving_low_foot_and_needs_contact():
+    n = 20
+    anchor = jnp.zeros(n, bool).at[:4].set(True).at[-1].set(True)
+    height, speed = jnp.zeros(n), jnp.full(n, 5.0)
+    lift = np.asarray(footlock.clearance_lift(height, speed, jnp.ones(n), anchor, 4.0, 2.0, 2))
+    assert np.all(lift[np.asarray(anchor)] == 0.0)
+    np.testing.assert_allclose(lift[8:16], 4.0)  # lifted to the clearance away from the plants
+    assert np.abs(np.diff(lift)).max() <= 4.0 * 0.75  # eased in and out, no jump to full height
+    still = np.asarray(footlock.clearance_lift(height, jnp.full(n, 0.5), jnp.ones(n), anchor, 4.0, 2.0, 2))
+    assert not still.any()  # a foot at rest is not lifted
+    none = np.asarray(footlock.clearance_lift(height, speed, jnp.zeros(n), anchor, 4.0, 2.0, 2))
+    assert not none.any()  # no predicted contact, no lift
+
+
+def test_pole_hint_bends_a_straight_leg_over_the_toes():
+    hip, knee, ankle = jnp.asarray([0.0, 80.0, 0.0]), jnp.asarray([0.0, 40.0, 0.0]), jnp.asarray([0.0, 0.0, 0.0])
+    target = jnp.asarray([0.0, 10.0, 0.0])  # 70 cm from the hip: the knee must bend, the straight leg has no plane
+    for sign in (1.0, -1.0):
+        _, _, new_knee, new_ankle, _ = footlock.two_bone_ik(hip, knee, ankle, target, jnp.float32(40.0),
+                                                            jnp.float32(40.0), hint=jnp.asarray([0.0, 0.0, 3.0 * sign]))
+        assert np.sign(float(new_knee[2])) == sign and float(new_knee[2]) * sign > 10.0
+        np.testing.assert_allclose(np.asarray(new_ankle), np.asarray(target), atol=1e-3)
+
+
+def test_skating_foot_is_planted_or_lifted():
+    """A foot skating on the ground at 2.5 cm/frame with contact predicted: after the pass, the frames
+    where a foot joint is within 2.5 cm of the ground (the foot-slide metric's) move far less."""
+    frames = 40
+    rotations, root = _pose(frames, step=2.5)
+    contacts = np.ones((frames, 2))
+    contacts[0] = contacts[-1] = 0.0  # keyframes not in contact: the foot is planted between them
+    local = np.broadcast_to(OFFSETS, rotations.shape[:-1] + (3,)).copy()
+    local[:, 0] = root
+    locked, _, stats = footlock.lock_transitions(rotations, local, contacts, SKELETON, FEET)
+
+    def slide(g):
+        feet = g[1:, [3, 4]]
+        ground = min(g[0, [3, 4], 1].min(), g[-1, [3, 4], 1].min())
+        weight = np.clip(2.0 - 2.0 ** ((feet[:-1, :, 1] - ground) / 2.5), 0.0, 1.0)
+        step = np.linalg.norm(np.diff(feet[..., [0, 2]], axis=0), axis=-1)
+        return (weight * step).sum() / max((weight > 0).sum(), 1)
+
+    before, after = slide(_global_positions(rotations, root)), slide(_global_positions(locked, root))
+    assert before > 2.0 and after < 0.25 * before
+    assert stats["planted"].any() and stats["lifted"].any()
+    assert np.array_equal(locked[[0, -1]], rotations[[0, -1]])
+    g = _global_positions(locked, root)
+    np.testing.assert_allclose(_bone_lengths(g), np.broadcast_to(np.linalg.norm(OFFSETS[1:], axis=-1), (frames, 4)),
+                               atol=1e-3)
