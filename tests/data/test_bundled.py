@@ -41,10 +41,10 @@ def test_sample_clips_load_as_lafan1():
 def test_sample_is_an_unmodified_excerpt(shared_data, tmp_path):
     """The bundled bytes are the release's hierarchy and frame lines (only ``Frames:`` differs)."""
     for path, (stem, start, stop) in zip(bundled.sample_files(), sorted(bundled.SAMPLE_CLIPS)):
-        bundled = gzip.decompress(path.read_bytes())
+        excerpt = gzip.decompress(path.read_bytes())
         original = (shared_data / "lafan1" / f"{stem}.bvh").read_bytes()
-        assert bundled == bundled.excerpt_text(shared_data / "lafan1" / f"{stem}.bvh", start, stop)
-        lines, source = bundled.splitlines(keepends=True), original.splitlines(keepends=True)
+        assert excerpt == bundled.excerpt_text(shared_data / "lafan1" / f"{stem}.bvh", start, stop)
+        lines, source = excerpt.splitlines(keepends=True), original.splitlines(keepends=True)
         motion = lines.index(b"MOTION\r\n") if b"MOTION\r\n" in lines else lines.index(b"MOTION\n")
         assert lines[: motion + 1] == source[: motion + 1]
         assert lines[motion + 1].strip() == b"Frames: %d" % (stop - start)
