@@ -2,10 +2,10 @@
 """Foot locking's cost against sampling's: 64 transitions of 50 frames on the CPU.
 
     python benchmarks/footlock.py
-    python benchmarks/footlock.py --checkpoint results/lafan1_cpu/from_scratch_mixed/models/pkv128 --runs 7
+    python benchmarks/footlock.py --checkpoint runs/lafan1 --runs 7
 
-The model (the committed ``pkv128`` by default; ``--checkpoint random`` for a freshly initialised lafan1
-model) generates ``--samples`` transitions of ``--length`` frames between two keyframes of the bundled
+The model (the release model, ``stitchjax.pretrained()``, by default; ``--checkpoint random`` for a freshly
+initialised lafan1 model) generates ``--samples`` transitions of ``--length`` frames between two keyframes of the bundled
 subject5 sample clip through ``inbetween.transitions_in_frame``. Printed, as the median (min) of ``--runs``
 timed calls after warm-up:
   - sampling: ``transitions_in_frame`` without the pass;
@@ -29,15 +29,12 @@ try:
 except ImportError:
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
 
-DEFAULT_CHECKPOINT = "results/lafan1_cpu/from_scratch_mixed/models/pkv128"
-
-
 from inference import _time  # noqa: E402  (median and best of the runs, as the sampler's benchmark)
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--checkpoint", default=DEFAULT_CHECKPOINT, help="model folder, or 'random'")
+    parser.add_argument("--checkpoint", default=None, help="model folder, or 'random' (default: the release model)")
     parser.add_argument("--length", type=int, default=50)
     parser.add_argument("--samples", type=int, default=64)
     parser.add_argument("--runs", type=int, default=5)
@@ -52,7 +49,9 @@ def main(argv=None) -> int:
     from stitchjax.sample import footlock, inbetween, trained_model
     from stitchjax import config as config_lib
 
-    if args.checkpoint == "random":
+    if args.checkpoint is None:
+        model = trained_model.pretrained()
+    elif args.checkpoint == "random":
         model = trained_model.random_model(config_lib.load_config("lafan1"), seed=0)
     else:
         model = trained_model.load_model(args.checkpoint)
