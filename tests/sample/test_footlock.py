@@ -1,10 +1,11 @@
-"""Foot locking (stitchjax.sample.footlock) on a one-legged synthetic skeleton: IK reach and bone lengths, the
-unreachable case, keyframes, planted feet, flickers and transitions without contacts."""
+"""Foot locking (stitchjax.sample.footlock and its foot_spans, foot_easing, leg_ik) on a one-legged synthetic
+skeleton: IK reach and bone lengths, the unreachable case, keyframes, planted feet, flickers and transitions without
+contacts."""
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from stitchjax.sample import footlock
+from stitchjax.sample import foot_easing, foot_spans, footlock, leg_ik
 from stitchjax import rotations as R
 from stitchjax.skeleton import Skeleton, forward_kinematics
 
@@ -47,7 +48,7 @@ def _solve(target, knee_degrees=40.0):
     local[:, 0] = root
     g_rot, g_pos = forward_kinematics(rotations, local, PARENTS)
     g_rot, g_pos = jnp.asarray(g_rot[0], jnp.float32), jnp.asarray(g_pos[0], jnp.float32)
-    hip_turn, knee_turn, _, _, _ = footlock.two_bone_ik(g_pos[1], g_pos[2], g_pos[3], jnp.asarray(target, jnp.float32),
+    hip_turn, knee_turn, _, _, _ = leg_ik.two_bone_ik(g_pos[1], g_pos[2], g_pos[3], jnp.asarray(target, jnp.float32),
                                                         jnp.float32(40.0), jnp.float32(40.0))
     hip = R.quat_mul(hip_turn, g_rot[1])
     knee = R.quat_mul(knee_turn, R.quat_mul(hip_turn, g_rot[2]))
@@ -133,14 +134,14 @@ def test_no_contacts_and_flickers_leave_the_transition_unchanged():
 
 def test_spans_hysteresis_and_blend():
     score = jnp.asarray([0.0, 0.6, 0.4, 0.3, 0.1, 0.6, 0.0, 0.9, 0.9, 0.9, 0.0])
-    on = np.asarray(footlock.hysteresis(score, 0.5, 0.25))
+    on = np.asarray(foot_spans.hysteresis(score, 0.5, 0.25))
     assert on.tolist() == [0, 1, 1, 1, 0, 1, 0, 1, 1, 1, 0]
-    kept = np.asarray(footlock.drop_short_spans(jnp.asarray(on), 3))
+    kept = np.asarray(foot_spans.drop_short_spans(jnp.asarray(on), 3))
     assert kept.tolist() == [0, 1, 1, 1, 0, 0, 0, 1, 1, 1, 0]
     anchor = jnp.zeros(11, bool).at[jnp.asarray([0, 1, 2, 10])].set(True)
     offset = jnp.zeros((11, 3)).at[2].set(jnp.asarray([4.0, 0.0, 0.0]))
     turn = jnp.zeros((11, 4)).at[:, 0].set(1.0)
-    blended, _, weight, arc = footlock.blended_corrections(anchor, offset, turn, blend_frames=4)
+    blended, _, weight, arc = foot_easing.blended_corrections(anchor, offset, turn, blend_frames=4)
     x = np.asarray(blended[:, 0])
     assert x[2] == 4.0 and x[10] == 0.0 and x[7] == 0.0
     assert np.all(np.diff(x[2:8]) <= 0) and 0 < x[4] < 4.0  # eased out over 4 frames
@@ -168,16 +169,16 @@ def test_before_after_figure(tmp_path):
 
 def test_bridge_gaps_fills_short_gaps_between_spans_only():
     mask = jnp.asarray([0, 1, 1, 0, 1, 1, 0, 0, 0, 1, 0], bool)
-    out = np.asarray(footlock.bridge_gaps(mask, 2)).astype(int).tolist()
+    out = np.asarray(foot_spans.bridge_gaps(mask, 2)).astype(int).tolist()
     assert out == [0, 1, 1, 1, 1, 1, 0, 0, 0, 1, 0]  # the 1-frame gap filled, the 3-frame gap and the ends not
-    assert np.array_equal(np.asarray(footlock.bridge_gaps(mask, 0)), np.asarray(mask))
+    assert np.array_equal(np.asarray(foot_spans.bridge_gaps(mask, 0)), np.asarray(mask))
 
 
 def test_plant_at_the_mean_of_the_span():
     mask = jnp.asarray([0, 0, 1, 1, 1, 1, 0, 0], bool)
     ankle = jnp.stack([jnp.arange(8.0), jnp.full(8, 5.0), jnp.zeros(8)], -1)
     rotation = jnp.zeros((8, 4)).at[:, 0].set(1.0)
-    position, _ = footlock.span_targets(mask, ankle, rotation, floor=0.0, plant_at=-1.0)
+    position, _ = foot_spans.span_targets(mask, ankle, rotation, floor=0.0, plant_at=-1.0)
     np.testing.assert_allclose(np.asarray(position[2:6, 0]), 3.5)  # mean of frames 2-5
     np.testing.assert_allclose(np.asarray(position[[0, 1, 6, 7], 0]), [0.0, 1.0, 6.0, 7.0])  # outside: the foot
 
@@ -189,7 +190,7 @@ def test_eased_plants_leave_a_plant_at_rest_and_leave_keyframes_alone():
     ankle = jnp.stack([3.0 * jnp.arange(n), jnp.zeros(n), jnp.zeros(n)], -1)  # the generated foot skates on
     target = jnp.where(anchor[:, None], jnp.asarray([3.0, 0.0, 0.0]), ankle)  # planted at frame 1's place
     identity = jnp.zeros((n, 4)).at[:, 0].set(1.0)
-    offset, turn, weight, _ = footlock.eased_plants(anchor, free, target, identity, ankle, identity, blend_frames=6)
+    offset, turn, weight, _ = foot_easing.eased_plants(anchor, free, target, identity, ankle, identity, blend_frames=6)
     foot = np.asarray(ankle + offset)[:, 0]
     assert np.abs(np.diff(foot[1:6])).max() < 1e-5  # held
     assert abs(foot[6] - foot[5]) < 1.0  # the first frame after the plant moves little (the skate: 3 cm/frame)
@@ -203,13 +204,13 @@ def test_clearance_lift_steps_a_moving_low_foot_and_needs_contact():
     n = 20
     anchor = jnp.zeros(n, bool).at[:4].set(True).at[-1].set(True)
     height, speed = jnp.zeros(n), jnp.full(n, 5.0)
-    lift = np.asarray(footlock.clearance_lift(height, speed, jnp.ones(n), anchor, 4.0, 2.0, 2))
+    lift = np.asarray(foot_easing.clearance_lift(height, speed, jnp.ones(n), anchor, 4.0, 2.0, 2))
     assert np.all(lift[np.asarray(anchor)] == 0.0)
     np.testing.assert_allclose(lift[8:16], 4.0)  # lifted to the clearance away from the plants
     assert np.abs(np.diff(lift)).max() <= 4.0 * 0.75  # eased in and out, no jump to full height
-    still = np.asarray(footlock.clearance_lift(height, jnp.full(n, 0.5), jnp.ones(n), anchor, 4.0, 2.0, 2))
+    still = np.asarray(foot_easing.clearance_lift(height, jnp.full(n, 0.5), jnp.ones(n), anchor, 4.0, 2.0, 2))
     assert not still.any()  # a foot at rest is not lifted
-    none = np.asarray(footlock.clearance_lift(height, speed, jnp.zeros(n), anchor, 4.0, 2.0, 2))
+    none = np.asarray(foot_easing.clearance_lift(height, speed, jnp.zeros(n), anchor, 4.0, 2.0, 2))
     assert not none.any()  # no predicted contact, no lift
 
 
@@ -217,7 +218,7 @@ def test_pole_hint_bends_a_straight_leg_over_the_toes():
     hip, knee, ankle = jnp.asarray([0.0, 80.0, 0.0]), jnp.asarray([0.0, 40.0, 0.0]), jnp.asarray([0.0, 0.0, 0.0])
     target = jnp.asarray([0.0, 10.0, 0.0])  # 70 cm from the hip: the knee must bend, the straight leg has no plane
     for sign in (1.0, -1.0):
-        _, _, new_knee, new_ankle, _ = footlock.two_bone_ik(hip, knee, ankle, target, jnp.float32(40.0),
+        _, _, new_knee, new_ankle, _ = leg_ik.two_bone_ik(hip, knee, ankle, target, jnp.float32(40.0),
                                                             jnp.float32(40.0), hint=jnp.asarray([0.0, 0.0, 3.0 * sign]))
         assert np.sign(float(new_knee[2])) == sign and float(new_knee[2]) * sign > 10.0
         np.testing.assert_allclose(np.asarray(new_ankle), np.asarray(target), atol=1e-3)
