@@ -1,189 +1,45 @@
-"""Figures for motions: stick figures, filmstrips, root trajectories, error over time, GIFs; and a
-training run's loss curves.
-
-Size (~460 lines): one job, every figure the project draws, on one set of projection and colour helpers.
+"""Figures for motions: stick figures, filmstrips, root trajectories, error over time; a training run's loss
+curves; foot heights before and after foot locking. GIFs are :mod:`stitchjax.eval.animation`'s.
 
 Everything takes FK *global* positions (file units, Y-up) and the skeleton's ``parents`` tuple, draws
-on matplotlib's non-interactive Agg canvas (no pyplot, no display), and returns the ``matplotlib.figure.Figure``; pass
-``path=`` to also write a PNG (or a GIF for :func:`animate`). Figure pixel size = ``figsize * dpi``
-exactly (no tight bounding box), so callers and tests can rely on it.
-
-Views: poses are drawn in a vertical plane seen from the side. ``view="side"`` looks along -Z (the
-x-y plane), ``view="front"`` along +X (the z-y plane), a number is an azimuth in degrees (the
-horizontal screen axis is ``cos(a) x + sin(a) z``), and ``view="auto"`` (default) picks the azimuth of
-the main direction of root travel, so a walking character is seen in profile.
-
-Colours: keyframes are drawn in black, transition frames with a colour map running from the start to
-the target keyframe, other frames (context kept from the file) in light grey.
+on matplotlib's non-interactive Agg canvas (no pyplot, no display; :mod:`stitchjax.eval.drawing`), and returns
+the ``matplotlib.figure.Figure``; pass ``path=`` to also write a PNG. Figure pixel size = ``figsize * dpi``
+exactly (no tight bounding box), so callers and tests can rely on it. Views and colours: see
+:mod:`stitchjax.eval.drawing`.
 """
 from __future__ import annotations
 
 import math
-import os
-import pathlib
 import textwrap
 from typing import Mapping, Sequence
 
 import matplotlib
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-__all__ = [
-    "horizontal_axis", "project", "draw_skeleton", "stick_figure", "filmstrip",
-    "root_trajectories", "error_over_time", "per_frame_error", "animate", "frame_colors",
-    "loss_curves", "foot_lock_before_after",
-]
+from stitchjax.eval.drawing import (DEFAULT_CMAP, KEYFRAME_COLOR, check_pose, draw_skeleton, finish_figure,
+                                    frame_axes, frame_colors, horizontal_axis, new_figure, project)
 
-KEYFRAME_COLOR = "black"
-CONTEXT_COLOR = "0.75"
-DEFAULT_CMAP = "viridis"
-
-
-# --------------------------------------------------------------------------------------- geometry
-
-
-def horizontal_axis(positions, view="auto") -> np.ndarray:
-    """Unit horizontal direction (x, z) used as the screen's horizontal axis.
-
-    positions: (..., T, J, 3) or a list of such arrays (global, Y-up); only used by ``view="auto"``,
-    which takes the principal direction of the root's x-z displacement over all frames (or +X when
-    the root hardly moves).
-    """
-    if isinstance(view, str):
-        if view == "side":
-            return np.array([1.0, 0.0])
-        if view == "front":
-            return np.array([0.0, 1.0])
-        if view != "auto":
-            raise ValueError(f"view must be 'auto', 'side', 'front' or an azimuth in degrees, got {view!r}")
-        arrays = positions if isinstance(positions, (list, tuple)) else [positions]
-        roots = [np.asarray(p, dtype=np.float64)[..., 0, :].reshape(-1, 3)[:, [0, 2]] for p in arrays]
-        xz = np.concatenate([r - r.mean(axis=0) for r in roots], axis=0)
-        if xz.shape[0] < 2 or np.abs(xz).max() < 1e-6:
-            return np.array([1.0, 0.0])
-        _, s, vt = np.linalg.svd(xz, full_matrices=False)
-        direction = vt[0]
-        if s[0] < 1e-6:
-            return np.array([1.0, 0.0])
-        # Point the axis along the travel from the first to the last root position of the first motion.
-        first = roots[0]
-        if np.dot(first[-1] - first[0], direction) < 0:
-            direction = -direction
-        return direction / np.linalg.norm(direction)
-    angle = np.deg2rad(float(view))
-    return np.array([np.cos(angle), np.sin(angle)])
-
-
-def project(positions, axis) -> np.ndarray:
-    """(..., 3) global positions -> (..., 2) screen coordinates (horizontal along ``axis``, height y)."""
-    p = np.asarray(positions, dtype=np.float64)
-    h = p[..., 0] * axis[0] + p[..., 2] * axis[1]
-    return np.stack([h, p[..., 1]], axis=-1)
-
-
-def frame_colors(num_frames: int, keyframes: Sequence[int] = (), transition: tuple | None = None,
-                 cmap: str = DEFAULT_CMAP) -> list:
-    """One matplotlib colour per frame: black at ``keyframes``, the colour map over the
-    ``transition`` frames (first, last) inclusive, light grey elsewhere.
-
-    ``transition=None`` colours every non-keyframe with the colour map.
-    """
-    colormap = matplotlib.colormaps[cmap]
-    first, last = (0, num_frames - 1) if transition is None else transition
-    span = max(last - first, 1)
-    colors = []
-    for t in range(num_frames):
-        if t in keyframes:
-            colors.append(KEYFRAME_COLOR)
-        elif first <= t <= last:
-            colors.append(colormap(0.1 + 0.8 * (t - first) / span))
-        else:
-            colors.append(CONTEXT_COLOR)
-    return colors
-
-
-def _check_pose(positions, parents):
-    p = np.asarray(positions, dtype=np.float64)
-    if p.ndim != 2 or p.shape[-1] != 3 or p.shape[0] != len(parents):
-        raise ValueError(f"a pose must be global positions (J, 3) with J = {len(parents)} joints, got "
-                         f"shape {p.shape}")
-    return p
+__all__ = ["stick_figure", "filmstrip", "root_trajectories", "error_over_time", "per_frame_error", "loss_curves",
+           "foot_lock_before_after"]
 
 
 # ----------------------------------------------------------------------------------------- poses
 
 
-def draw_skeleton(ax, positions, parents, *, axis=(1.0, 0.0), shift: float = 0.0, color="C0",
-                  linewidth: float = 1.5, alpha: float = 1.0, zorder: int = 2, shade_far: bool = True) -> list:
-    """Draw one pose as a stick figure on ``ax``: one line per bone (J - 1 lines).
-
-    positions: (J, 3) global positions (Y-up); parents: (J,) parent indices (-1 for the root).
-    axis: horizontal screen direction (x, z) (see :func:`horizontal_axis`); shift: added to the
-    horizontal screen coordinate (to lay figures side by side). shade_far: bones farther from the
-    viewer than the root are drawn fainter and thinner, so left and right limbs can be told apart.
-    Returns the list of Line2D bones.
-    """
-    p = _check_pose(positions, parents)
-    axis = np.asarray(axis, dtype=np.float64)
-    screen = project(p, axis)
-    screen[:, 0] += shift
-    # Towards the viewer: (axis_x, 0, axis_z) x (0, 1, 0) = (-axis_z, 0, axis_x).
-    nearness = -axis[1] * p[:, 0] + axis[0] * p[:, 2]
-    lines = []
-    for j, parent in enumerate(parents):
-        if parent < 0:
-            continue
-        far = shade_far and 0.5 * (nearness[j] + nearness[parent]) < nearness[0] - 1e-9
-        (line,) = ax.plot(screen[[parent, j], 0], screen[[parent, j], 1], color=color,
-                          linewidth=linewidth * (0.75 if far else 1.0), alpha=alpha * (0.45 if far else 1.0),
-                          solid_capstyle="round", zorder=zorder - (0.5 if far else 0.0))
-        lines.append(line)
-    return lines
-
-
-def _finish(fig: Figure, path) -> Figure:
-    if path is not None:
-        path = pathlib.Path(os.fspath(path))
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=fig.dpi)
-    return fig
-
-
-def _new_figure(figsize, dpi) -> Figure:
-    # Figure() on an Agg canvas, not pyplot: no display needed, whatever backend the host uses, and
-    # figures are not kept alive by pyplot's registry (they still display inline in notebooks).
-    fig = Figure(figsize=figsize, dpi=dpi)
-    FigureCanvasAgg(fig)
-    return fig
-
-
 def stick_figure(positions, parents, *, view="auto", color="black", title: str | None = None,
                  figsize=(3.0, 4.0), dpi: int = 100, path=None) -> Figure:
     """One pose (J, 3) as a stick figure seen from the side. Returns the Figure (PNG at ``path``)."""
-    p = _check_pose(positions, parents)
-    fig = _new_figure(figsize, dpi)
+    p = check_pose(positions, parents)
+    fig = new_figure(figsize, dpi)
     ax = fig.add_subplot(1, 1, 1)
     axis = horizontal_axis(p[None], view) if view != "auto" else np.array([1.0, 0.0])
     draw_skeleton(ax, p, parents, axis=axis, color=color, linewidth=2.0)
     screen = project(p, axis)
-    _frame_axes(ax, screen[:, 0].min(), screen[:, 0].max(), screen[:, 1].min(), screen[:, 1].max())
+    frame_axes(ax, screen[:, 0].min(), screen[:, 0].max(), screen[:, 1].min(), screen[:, 1].max())
     if title:
         ax.set_title(title, fontsize=9)
-    return _finish(fig, path)
-
-
-def _frame_axes(ax, xmin, xmax, ymin, ymax, margin: float = 0.08):
-    """Equal aspect, a small margin, the ground line at y = ymin, no ticks."""
-    w, h = max(xmax - xmin, 1e-6), max(ymax - ymin, 1e-6)
-    pad = margin * max(w, h)
-    ax.set_xlim(xmin - pad, xmax + pad)
-    ax.set_ylim(ymin - pad, ymax + pad)
-    ax.set_aspect("equal", adjustable="box")
-    ax.set_xticks([])
-    ax.set_yticks([])
-    for side in ("top", "right", "left", "bottom"):
-        ax.spines[side].set_visible(False)
+    return finish_figure(fig, path)
 
 
 # ------------------------------------------------------------------------------------- filmstrips
@@ -218,6 +74,37 @@ def _placed_poses(poses, axis, spacing: float, travel: bool) -> np.ndarray:
     return screen
 
 
+def _filmstrip_layout(titles, title, row_height: float, data_w: float, data_h: float, rows: int, figsize) -> tuple:
+    """(figsize, the title wrapped to the figure's width, the title's height, the row titles' width), in inches.
+
+    data_w, data_h: the drawn poses' width and height (data units); each row is ``row_height`` inches tall; the
+    width keeps their aspect (at least 4 inches) unless ``figsize`` is given."""
+    # room for the row titles: about 0.065 inch per character at font size 8
+    label_w = max(0.7, 0.15 + 0.065 * max(len(str(t)) for t in titles)) if titles else 0.1
+    width = label_w + 0.1 + row_height * data_w / data_h  # inches: rows of row_height, the data's aspect
+    if figsize is None:
+        width = max(width, 4.0)
+    else:
+        width = float(figsize[0])
+    # the title wrapped to the figure's width (about 0.07 inch per character at font size 9)
+    lines = textwrap.wrap(title, max(20, int((width - 0.3) / 0.07))) if title else []
+    title = "\n".join(lines)
+    title_h = 0.1 + 0.17 * len(lines) if lines else 0.0
+    if figsize is None:
+        figsize = (width, row_height * rows + title_h)
+    return figsize, title, title_h, label_w
+
+
+def _draw_filmstrip_row(ax, motion, screen, drawn, keyframes, colors, parents, axis):
+    """The poses of one filmstrip row: motion (T, J, 3), at the placed screen coordinates (D, J, 2) of its
+    ``drawn`` frames (D,); keyframes drawn thicker and on top."""
+    for k, t in enumerate(drawn):
+        is_key = t in keyframes
+        shift = screen[k, 0, 0] - project(motion[t, :1], axis)[0, 0]
+        draw_skeleton(ax, motion[t], parents, axis=axis, shift=shift, color=colors[t],
+                      linewidth=1.6 if is_key else 1.2, zorder=3 if is_key else 2)
+
+
 def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | None = None,
               transition: tuple | None = None, titles: Sequence[str] | None = None, view="auto",
               spacing: float | None = None, travel: bool = False, cmap: str = DEFAULT_CMAP,
@@ -229,7 +116,7 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
     keyframes: frame indices drawn in black and always drawn (default: first and last frame).
     transition: (first, last) frames coloured with ``cmap`` (default: between the keyframes);
       frames outside it are light grey.
-    view: see the module docstring; one axis is chosen for all rows, so rows are comparable.
+    view: see :mod:`stitchjax.eval.drawing`; one axis is chosen for all rows, so rows are comparable.
     spacing: horizontal distance between consecutive figures (file units; default 0.6 x body height);
       each figure is centred on its own root unless ``travel=True`` (then it keeps its real
       horizontal displacement from the first drawn frame, which shows speed but may overlap).
@@ -253,30 +140,15 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
     xmax = max(float(p[..., 0].max()) for p in placed)
     pad = 0.05 * height
     data_w, data_h = xmax - xmin + 2 * pad, height + 2 * pad
-    # room for the row titles: about 0.065 inch per character at font size 8
-    label_w = max(0.7, 0.15 + 0.065 * max(len(str(t)) for t in titles)) if titles else 0.1
-    width = label_w + 0.1 + row_height * data_w / data_h  # inches: rows of row_height, the data's aspect
-    if figsize is None:
-        width = max(width, 4.0)
-    else:
-        width = float(figsize[0])
-    # the title wrapped to the figure's width (about 0.07 inch per character at font size 9)
-    lines = textwrap.wrap(title, max(20, int((width - 0.3) / 0.07))) if title else []
-    title = "\n".join(lines)
-    title_h = 0.1 + 0.17 * len(lines) if lines else 0.0
-    if figsize is None:
-        figsize = (width, row_height * len(motions) + title_h)
-    fig = _new_figure(figsize, dpi)
+    figsize, title, title_h, label_w = _filmstrip_layout(titles, title, row_height, data_w, data_h, len(motions),
+                                                         figsize)
+    fig = new_figure(figsize, dpi)
     fig_w, fig_h = fig.get_size_inches()
     row_h = (fig_h - title_h) / len(motions)
     for row, (m, screen) in enumerate(zip(motions, placed)):
         bottom = (fig_h - title_h - (row + 1) * row_h) / fig_h
         ax = fig.add_axes((label_w / fig_w, bottom, (fig_w - label_w - 0.1) / fig_w, row_h / fig_h))
-        for k, t in enumerate(drawn):
-            is_key = t in keyframes
-            shift = screen[k, 0, 0] - project(m[t, :1], axis)[0, 0]
-            draw_skeleton(ax, m[t], parents, axis=axis, shift=shift, color=colors[t],
-                          linewidth=1.6 if is_key else 1.2, zorder=3 if is_key else 2)
+        _draw_filmstrip_row(ax, m, screen, drawn, keyframes, colors, parents, axis)
         ax.axhline(ymin, color="0.8", linewidth=0.8, zorder=1, gid="ground")
         ax.set_xlim(xmin - pad, xmax + pad)
         ax.set_ylim(ymin - pad, ymax + pad)
@@ -287,7 +159,7 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
                     va="center")
     if title:
         fig.suptitle(title, fontsize=9, y=1 - 0.05 * title_h / fig_h)
-    return _finish(fig, path)
+    return finish_figure(fig, path)
 
 
 # ----------------------------------------------------------------------------------- trajectories
@@ -309,7 +181,7 @@ def root_trajectories(trajectories, *, labels: Sequence[str] | None = None, keyf
 
     items = list(trajectories)  # an array iterates over its first axis: (S, T, 3) or (S, T, J, 3)
     paths = [roots(t) for t in items]
-    fig = _new_figure(figsize, dpi)
+    fig = new_figure(figsize, dpi)
     ax = fig.add_subplot(1, 1, 1)
     colormap = matplotlib.colormaps["tab10"]
     for i, r in enumerate(paths):
@@ -331,7 +203,7 @@ def root_trajectories(trajectories, *, labels: Sequence[str] | None = None, keyf
     if title:
         ax.set_title(title, fontsize=9)
     fig.tight_layout()
-    return _finish(fig, path)
+    return finish_figure(fig, path)
 
 
 # ---------------------------------------------------------------------------------- error curves
@@ -358,7 +230,7 @@ def error_over_time(errors: Mapping[str, Sequence[float]], *, first_frame: int =
     """
     if not errors:
         raise ValueError("error_over_time needs at least one method")
-    fig = _new_figure(figsize, dpi)
+    fig = new_figure(figsize, dpi)
     ax = fig.add_subplot(1, 1, 1)
     for name, values in errors.items():
         v = np.asarray(values, dtype=np.float64).ravel()
@@ -372,76 +244,7 @@ def error_over_time(errors: Mapping[str, Sequence[float]], *, first_frame: int =
     if title:
         ax.set_title(title, fontsize=9)
     fig.tight_layout()
-    return _finish(fig, path)
-
-
-# -------------------------------------------------------------------------------------- animation
-
-
-def animate(motions, parents, path, *, fps: float = 30.0, keyframes: Sequence[int] | None = None,
-            transition: tuple | None = None, titles: Sequence[str] | None = None, view="auto",
-            cmap: str = DEFAULT_CMAP, height: float = 3.6,
-            dpi: int = 80):
-    """Write an animated GIF (Pillow writer) of motions playing side by side, one panel each.
-
-    motions: list of (T, J, 3) global positions, same T. The figure at a keyframe is black, during the
-    transition it takes the frame's colour map colour, elsewhere grey. Each panel is square and shows the
-    body at about 70 % of its height (``height`` inches at ``dpi``: 288 px, a figure ~210 px tall by
-    default); a character that travels further than half its height is followed by the camera, and marks on
-    the ground every quarter of the body's height scroll past, so root travel and foot sliding show.
-    Returns the path written.
-    """
-    from matplotlib.animation import FuncAnimation, PillowWriter
-
-    motions = [np.asarray(m, dtype=np.float64) for m in motions]
-    num_frames = motions[0].shape[0]
-    keyframes = (0, num_frames - 1) if keyframes is None else tuple(int(k) % num_frames for k in keyframes)
-    if transition is None:
-        transition = (min(keyframes), max(keyframes))
-    colors = frame_colors(num_frames, keyframes, transition, cmap)
-    axis = horizontal_axis(motions, view)
-    fig = _new_figure((height * 0.9 * len(motions), height), dpi)
-    axes = fig.subplots(1, len(motions), squeeze=False)[0]
-    ymin = min(float(m[..., 1].min()) for m in motions)
-    ymax = max(float(m[..., 1].max()) for m in motions)
-    body = max(ymax - ymin, 1e-6)
-    half = 0.6 * body  # half the visible width: a square view of the body with a margin
-    artists = []
-    for i, (ax, m) in enumerate(zip(axes, motions)):
-        screen = project(m, axis)
-        root = screen[:, 0, 0]
-        follow = root.max() - root.min() > 0.5 * body
-        centres = root if follow else np.full(num_frames, 0.5 * (screen[..., 0].min() + screen[..., 0].max()))
-        _frame_axes(ax, centres[0] - half, centres[0] + half, ymin, ymax)
-        ax.set_xlim(centres[0] - half, centres[0] + half)
-        ax.axhline(ymin, color="0.85", linewidth=0.8)
-        step = 0.25 * body
-        for x in np.arange(np.floor((root.min() - 2 * half) / step), np.ceil((root.max() + 2 * half) / step) + 1) * step:
-            ax.plot([x, x], [ymin - 0.03 * body, ymin], color="0.7", linewidth=0.8)
-        lines = draw_skeleton(ax, m[0], parents, axis=axis, color=colors[0], linewidth=1.8)
-        if titles is not None and i < len(titles):
-            ax.set_title(str(titles[i]), fontsize=8)
-        artists.append((ax, screen, lines, centres))
-    counter = fig.text(0.01, 0.01, "", fontsize=7)
-    bones = [(p, j) for j, p in enumerate(parents) if p >= 0]
-    fig.subplots_adjust(left=0.01, right=0.99, bottom=0.05, top=0.9, wspace=0.05)
-
-    def update(t):
-        changed = [counter]
-        for ax, screen, lines, centres in artists:
-            ax.set_xlim(centres[t] - half, centres[t] + half)
-            for line, (p, j) in zip(lines, bones):
-                line.set_data(screen[t, [p, j], 0], screen[t, [p, j], 1])
-                line.set_color(colors[t])
-                changed.append(line)
-        counter.set_text(f"frame {t}")
-        return changed
-
-    anim = FuncAnimation(fig, update, frames=num_frames, blit=False)
-    path = pathlib.Path(os.fspath(path))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    anim.save(str(path), writer=PillowWriter(fps=max(1, int(round(fps)))), dpi=dpi)
-    return path
+    return finish_figure(fig, path)
 
 
 # -------------------------------------------------------------------------------------- training
@@ -467,7 +270,7 @@ def loss_curves(records: Sequence[Mapping[str, float]], *, dpi: int = 90, path=N
               + [n for n in panels if n.startswith("val_")]}
     cols = 4
     rows = max(1, math.ceil(len(panels) / cols))
-    fig = _new_figure((3.6 * cols, 2.4 * rows), 100)  # laid out at 100 dpi (matplotlib's default), drawn at `dpi`
+    fig = new_figure((3.6 * cols, 2.4 * rows), 100)  # laid out at 100 dpi (matplotlib's default), drawn at `dpi`
     axes = fig.subplots(rows, cols, squeeze=False)
     def curve(name):  # the records that have the term (validation records come every eval_every steps)
         points = [(r["step"], r[name]) for r in records if name in r]
@@ -487,7 +290,7 @@ def loss_curves(records: Sequence[Mapping[str, float]], *, dpi: int = 90, path=N
         ax.axis("off")
     fig.tight_layout()
     fig.set_dpi(dpi)
-    return _finish(fig, path)
+    return finish_figure(fig, path)
 
 
 # ------------------------------------------------------------------------------------------ foot locking
@@ -519,7 +322,7 @@ def foot_lock_before_after(before, after, planted, feet, *, let_go=None, ground:
         raise ValueError(f"foot_lock_before_after: positions {before.shape} and {after.shape} must match and "
                          f"planted must be (T, {legs}), got {planted.shape}")
     horizontal = [a for a in range(3) if a != up_axis]
-    fig = _new_figure(figsize, dpi)
+    fig = new_figure(figsize, dpi)
     frames = np.arange(before.shape[0])
     for leg in range(legs):
         ankle, toe = feet[2 * leg], feet[2 * leg + 1]
@@ -546,4 +349,4 @@ def foot_lock_before_after(before, after, planted, feet, *, let_go=None, ground:
     if title:
         fig.suptitle(title, fontsize=9)
     fig.tight_layout()
-    return _finish(fig, path)
+    return finish_figure(fig, path)

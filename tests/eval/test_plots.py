@@ -4,7 +4,7 @@ import pytest
 from matplotlib.figure import Figure
 from matplotlib.image import imread
 
-from stitchjax.eval import plots
+from stitchjax.eval import animation, drawing, plots
 from stitchjax.skeleton import LAFAN1_PARENTS, forward_kinematics
 
 J = len(LAFAN1_PARENTS)
@@ -39,7 +39,7 @@ def test_stick_figure_draws_one_line_per_bone(tmp_path):
     pose = _walk()[0]
     fig = Figure()
     ax = fig.add_subplot(1, 1, 1)
-    lines = plots.draw_skeleton(ax, pose, LAFAN1_PARENTS)
+    lines = drawing.draw_skeleton(ax, pose, LAFAN1_PARENTS)
     assert len(lines) == J - 1
     # Each line joins a joint to its parent (projected on the side view x-y).
     for line, j in zip(lines, range(1, J)):
@@ -81,9 +81,9 @@ def test_filmstrip_wraps_a_long_title_instead_of_widening_the_figure():
 
 def test_auto_view_looks_at_the_walk_from_the_side():
     along_z = _walk(heading=(0.0, 1.0))
-    axis = plots.horizontal_axis(along_z, "auto")
+    axis = drawing.horizontal_axis(along_z, "auto")
     np.testing.assert_allclose(np.abs(axis), [0.0, 1.0], atol=1e-6)
-    np.testing.assert_allclose(plots.horizontal_axis(along_z, 90.0), [0.0, 1.0], atol=1e-12)
+    np.testing.assert_allclose(drawing.horizontal_axis(along_z, 90.0), [0.0, 1.0], atol=1e-12)
 
 
 def test_root_trajectories_and_error_over_time(tmp_path):
@@ -101,7 +101,7 @@ def test_root_trajectories_and_error_over_time(tmp_path):
 
 
 def test_animate_writes_gif(tmp_path):
-    path = plots.animate([_walk(num_frames=6)], LAFAN1_PARENTS, tmp_path / "a.gif", fps=10, dpi=40)
+    path = animation.animate([_walk(num_frames=6)], LAFAN1_PARENTS, tmp_path / "a.gif", fps=10, dpi=40)
     assert path.is_file() and path.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
 
 
@@ -143,7 +143,7 @@ def test_gif_figures_are_readable_and_followed_as_they_travel(tmp_path):
     from PIL import Image
 
     walk = _walk(num_frames=30)  # travels 145 cm, more than the figure's height
-    path = plots.animate([walk, walk], LAFAN1_PARENTS, tmp_path / "w.gif", fps=30, keyframes=(0, 29))
+    path = animation.animate([walk, walk], LAFAN1_PARENTS, tmp_path / "w.gif", fps=30, keyframes=(0, 29))
     image = Image.open(path)
     assert image.n_frames == 30
     tallest = 0
