@@ -20,7 +20,7 @@ from typing import Callable
 
 import numpy as np
 
-from stitchjax.data import bvh, bvh_folder, conform, features, h36m, lafan1, bundled
+from stitchjax.data import bvh, bvh_folder, conform, features, h36m, lafan1, bundled, mirror
 from stitchjax.data import windows as windows_lib
 from stitchjax import config as config_lib
 from stitchjax.skeleton import LAFAN1_FEET, LAFAN1_FPS, LAFAN1_JOINTS, LAFAN1_PARENTS, Skeleton
@@ -260,24 +260,9 @@ def _conformed(motion, data, names, parents, reference_offsets, what: str):
     return motion
 
 
-def training_set(data_dir, config):
-    """(dataset dict, Stats) of the training set with the data.* options (see :func:`load_training_data`).
-
-    The main training files less ``data.validation_files``, then the files of ``data.extra_train_dirs``
-    (conformed to the main skeleton by :func:`_conformed`), cut into windows as the benchmark does
-    (window / offset of config.data, centred and faced at frame 9). data.random_starts: each window carries
-    offset - 1 more frames and the arrays "facing" and "start_counts", so the train step can start a window at
-    any frame (features.random_start_batch). data.mirror: every window is followed by its left/right mirror
-    image (windows.mirror_arrays). Stats: of every window's first ``window`` frames, mirrored ones included.
-    """
-    data = config.data
-    folder = pathlib.Path(data_dir).expanduser()
-    train, _ = _main_files(folder, data)
-    held_out = set(validation_files(folder, data))
-    train = [p for p in train if p not in held_out]
-    if not train:
-        raise ValueError("data.validation_files holds out every training file: keep some for training")
-    extra = extra_training_files(folder, data)
+def _main_loader(train: list, data) -> tuple:
+    """(the first main training file's Motion, load(path) -> a main training file's Motion (the first one not
+    read again), the contact joints, the forward axis) of ``data.dataset``."""
     if data.dataset == "lafan1":
         first = bvh.load(train[0])
         feet, forward = tuple(LAFAN1_FEET), (0.0, 1.0, 0.0)
@@ -290,7 +275,12 @@ def training_set(data_dir, config):
 
         def load_main(path):
             return first if path == train[0] else bvh_folder.load_take(path, data, resolved)[0]
-    skeleton = first.skeleton
+    return first, load_main, feet, forward
+
+
+def _training_clips(train: list, extra: list, load_main, skeleton: Skeleton, data, feet, forward) -> tuple:
+    """(clips, sources): the windows of every main (``train``) and extra training file
+    (``windows.clip_windows``) and each window's "file:start"."""
     names, parents = skeleton.names, skeleton.parents
     extra_frames = data.offset - 1 if data.random_starts else 0
     clips, sources = [], []
@@ -306,22 +296,55 @@ def training_set(data_dir, config):
         sources += [f"{pathlib.Path(path).name}:{s}" for s in clip["starts"]]
     if not sources:
         raise ValueError(f"no training file is longer than data.window={data.window} frames: no training windows")
+    return clips, sources
+
+
+def _with_mirror_images(arrays: tuple, sources: list, counts, facing, names, feet, forward) -> tuple:
+    """(rotations, positions, contacts) ``arrays``, sources, counts and facing with every window's left/right
+    mirror image appended (``mirror.mirror_arrays``), in the same order."""
+    rotations, positions, contacts = arrays
+    joint_map = mirror.mirror_joint_map(names)
+    mirror.check_mirror_symmetry(positions[0, 0], joint_map, names)
+    mirrored = mirror.mirror_arrays(rotations, positions, contacts, joint_map,
+                                    mirror.mirror_contact_map(feet, joint_map))
+    arrays = tuple(np.concatenate([a, b]) for a, b in zip((rotations, positions, contacts), mirrored))
+    sources = sources + [f"{s}:mirrored" for s in sources]
+    counts = None if counts is None else np.concatenate([counts, counts])
+    if facing is not None:  # the mirror images are aligned windows of their own (no turn to undo)
+        facing = np.concatenate([facing, windows_lib.facing_per_frame(mirrored[0][:, :, 0], forward)])
+    return arrays, sources, counts, facing
+
+
+def training_set(data_dir, config):
+    """(dataset dict, Stats) of the training set with the data.* options (see :func:`load_training_data`).
+
+    The main training files less ``data.validation_files``, then the files of ``data.extra_train_dirs``
+    (conformed to the main skeleton by :func:`_conformed`), cut into windows as the benchmark does
+    (window / offset of config.data, centred and faced at frame 9). data.random_starts: each window carries
+    offset - 1 more frames and the arrays "facing" and "start_counts", so the train step can start a window at
+    any frame (features.random_start_batch). data.mirror: every window is followed by its left/right mirror
+    image (mirror.mirror_arrays). Stats: of every window's first ``window`` frames, mirrored ones included.
+    """
+    data = config.data
+    folder = pathlib.Path(data_dir).expanduser()
+    train, _ = _main_files(folder, data)
+    held_out = set(validation_files(folder, data))
+    train = [p for p in train if p not in held_out]
+    if not train:
+        raise ValueError("data.validation_files holds out every training file: keep some for training")
+    extra = extra_training_files(folder, data)
+    first, load_main, feet, forward = _main_loader(train, data)
+    skeleton = first.skeleton
+    names, parents = skeleton.names, skeleton.parents
+    clips, sources = _training_clips(train, extra, load_main, skeleton, data, feet, forward)
     arrays = windows_lib.concatenate_clips(clips)
     rotations, positions, contacts = arrays["rotations"], arrays["positions"], arrays["contacts"]
     counts = np.concatenate([clip["start_counts"] for clip in clips]) if data.random_starts else None
     facing = (windows_lib.facing_per_frame(rotations[:, :, 0], forward, np.concatenate([c["turns"] for c in clips]))
               if data.random_starts else None)
     if data.mirror:
-        joint_map = windows_lib.mirror_joint_map(names)
-        windows_lib.check_mirror_symmetry(positions[0, 0], joint_map, names)
-        mirrored = windows_lib.mirror_arrays(rotations, positions, contacts, joint_map,
-                                             windows_lib.mirror_contact_map(feet, joint_map))
-        rotations, positions, contacts = (np.concatenate([a, b]) for a, b in zip((rotations, positions, contacts),
-                                                                                 mirrored))
-        sources = sources + [f"{s}:mirrored" for s in sources]
-        counts = None if counts is None else np.concatenate([counts, counts])
-        if facing is not None:  # the mirror images are aligned windows of their own (no turn to undo)
-            facing = np.concatenate([facing, windows_lib.facing_per_frame(mirrored[0][:, :, 0], forward)])
+        (rotations, positions, contacts), sources, counts, facing = _with_mirror_images(
+            (rotations, positions, contacts), sources, counts, facing, names, feet, forward)
     windows = Windows(rotations, positions, contacts, Skeleton(names, parents, skeleton.offsets), float(data.fps),
                       sources)
     dataset = features.prepare_dataset(windows, None, config)

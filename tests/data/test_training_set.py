@@ -107,11 +107,11 @@ def test_mirrored_training_set_is_twice_as_large_with_mirrored_statistics(sample
     n = len(plain["rotations"])
     assert len(data["rotations"]) == 2 * n
     np.testing.assert_array_equal(data["rotations"][:n], plain["rotations"])
-    from stitchjax.data import windows as W
+    from stitchjax.data import mirror
 
-    joint_map = W.mirror_joint_map(LAFAN1_JOINTS)
-    mirrored = W.mirror_arrays(data["rotations"][:n], data["global_positions"][:n], data["contacts"][:n], joint_map,
-                               W.mirror_contact_map((3, 4, 7, 8), joint_map))
+    joint_map = mirror.mirror_joint_map(LAFAN1_JOINTS)
+    mirrored = mirror.mirror_arrays(data["rotations"][:n], data["global_positions"][:n], data["contacts"][:n],
+                                    joint_map, mirror.mirror_contact_map((3, 4, 7, 8), joint_map))
     np.testing.assert_array_equal(data["rotations"][n:], mirrored[0])
     np.testing.assert_allclose(data["global_positions"][n:], mirrored[1], atol=1e-3)  # FK of the mirror image
     np.testing.assert_array_equal(data["contacts"][n:], mirrored[2])

@@ -283,20 +283,20 @@ def test_random_start_batch_draws_every_start_uniformly_on_device():
 
 
 def test_mirroring_twice_gives_the_window_back_bit_for_bit_and_swaps_sides():
-    from stitchjax.data import windows as windows_lib
+    from stitchjax.data import mirror
     from stitchjax.skeleton import LAFAN1_JOINTS
 
     rng = np.random.default_rng(14)
     rot, pos = random_motion(rng, (3, 9))
     contacts = rng.integers(0, 2, size=(3, 9, 4)).astype(np.float64)
-    joint_map = windows_lib.mirror_joint_map(LAFAN1_JOINTS)
-    contact_map = windows_lib.mirror_contact_map(LAFAN1_FEET, joint_map)
+    joint_map = mirror.mirror_joint_map(LAFAN1_JOINTS)
+    contact_map = mirror.mirror_contact_map(LAFAN1_FEET, joint_map)
     names = list(LAFAN1_JOINTS)
     assert names[joint_map[names.index("LeftToe")]] == "RightToe"
     assert joint_map[names.index("Spine1")] == names.index("Spine1")
     np.testing.assert_array_equal(contact_map, [2, 3, 0, 1])
-    once = windows_lib.mirror_arrays(rot, pos, contacts, joint_map, contact_map)
-    twice = windows_lib.mirror_arrays(*once, joint_map, contact_map)
+    once = mirror.mirror_arrays(rot, pos, contacts, joint_map, contact_map)
+    twice = mirror.mirror_arrays(*once, joint_map, contact_map)
     for a, b in zip(twice, (rot, pos, contacts)):
         np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(once[2][..., 0], contacts[..., 2])  # the left foot's contact was the right's
@@ -307,12 +307,12 @@ def test_mirroring_twice_gives_the_window_back_bit_for_bit_and_swaps_sides():
 
 
 def test_mirroring_refuses_an_asymmetric_skeleton_and_unpaired_names():
-    from stitchjax.data import windows as windows_lib
+    from stitchjax.data import mirror
     from stitchjax.skeleton import LAFAN1_JOINTS
 
     with pytest.raises(ValueError, match="no twin"):
-        windows_lib.mirror_joint_map(["Hips", "LeftLeg"])
+        mirror.mirror_joint_map(["Hips", "LeftLeg"])
     offsets = np.zeros((J, 3))
     offsets[1:] = [1.0, 2.0, 3.0]  # both legs on the same side
     with pytest.raises(ValueError, match="not left/right symmetric"):
-        windows_lib.check_mirror_symmetry(offsets, windows_lib.mirror_joint_map(LAFAN1_JOINTS), LAFAN1_JOINTS)
+        mirror.check_mirror_symmetry(offsets, mirror.mirror_joint_map(LAFAN1_JOINTS), LAFAN1_JOINTS)
