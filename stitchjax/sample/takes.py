@@ -198,6 +198,44 @@ def _at_rate(take: Motion, fps: float, frame: int) -> tuple:
         raise InbetweenError(str(error)) from None
 
 
+def _check_takes_request(start_take, start_frame, target_take, target_frame, output: str, offset_from: str,
+                         scale: float) -> None:
+    """InbetweenError naming the first bad argument of :func:`inbetween_takes`."""
+    if output not in OUTPUTS:
+        raise InbetweenError(f"output {output!r}: use one of {', '.join(OUTPUTS)}")
+    if offset_from not in OFFSET_FROM:
+        raise InbetweenError(f"offset_from {offset_from!r}: use one of {', '.join(OFFSET_FROM)}")
+    if not np.isfinite(scale) or scale <= 0:
+        raise InbetweenError(f"scale must be a positive number, got {scale}")
+    for what, take in (("start take", start_take), ("target take", target_take)):
+        if not isinstance(take, Motion):
+            raise InbetweenError(f"{what} must be a stitchjax.data.bvh.Motion, got {type(take).__name__}")
+    _check_frame(start_take, start_frame, "start frame")
+    _check_frame(target_take, target_frame, "target frame")
+
+
+def _take_outputs(model: Model, samples: list, start_take: Motion, start_frame: int, target_take: Motion,
+                  target_frame: int, generated: int, length: int, take_fps: float, output: str, scale: float) -> list:
+    """The generated ``samples`` (``generated`` frames at the model's rate) put between the takes' frames as
+    ``output`` says, ``length`` frames at the start take's rate ``take_fps``, in the takes' own units and axes.
+    start_take, target_take: on the model's terms (:func:`conform_take`, the target placed)."""
+    fps = float(model.config.data.fps)
+    # the target take at the start take's rate, its keyframe at index b_out
+    target_out, b_out = _at_rate(target_take, take_fps, target_frame)
+    a_out = int(start_frame)
+    out = []
+    for s in samples:
+        if generated != length or abs(take_fps - fps) > 1e-9 * fps:
+            s = conform.retime(s, length + 2, take_fps)  # back onto the take's frames
+        head = slice(a_out, a_out + 1) if output == "transition" else slice(0, a_out + 1)
+        tail = slice(b_out, None) if output == "clip" else slice(b_out, b_out + 1)
+        motion = start_take.with_frames(
+            np.concatenate([start_take.rotations[head], s.rotations[1:-1], target_out.rotations[tail]]),
+            np.concatenate([start_take.positions[head], s.positions[1:-1], target_out.positions[tail]]))
+        out.append(from_model_frame(model, motion, scale))
+    return out
+
+
 def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_take: Motion, target_frame: int,
                     length: int | None = None, num_samples: int = 1, seed=0, search: int = 0, *,
                     offset=(0.0, 0.0, 0.0), turn_degrees: float = 0.0, output: str = "appended",
@@ -232,17 +270,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     kept as they are.
     """
     model = model_or_pretrained(model)  # None: the release model
-    if output not in OUTPUTS:
-        raise InbetweenError(f"output {output!r}: use one of {', '.join(OUTPUTS)}")
-    if offset_from not in OFFSET_FROM:
-        raise InbetweenError(f"offset_from {offset_from!r}: use one of {', '.join(OFFSET_FROM)}")
-    if not np.isfinite(scale) or scale <= 0:
-        raise InbetweenError(f"scale must be a positive number, got {scale}")
-    for what, take in (("start take", start_take), ("target take", target_take)):
-        if not isinstance(take, Motion):
-            raise InbetweenError(f"{what} must be a stitchjax.data.bvh.Motion, got {type(take).__name__}")
-    _check_frame(start_take, start_frame, "start frame")
-    _check_frame(target_take, target_frame, "target frame")
+    _check_takes_request(start_take, start_frame, target_take, target_frame, output, offset_from, scale)
     same = target_take is start_take
     take_fps, fps = float(start_take.fps), float(model.config.data.fps)
     if length is None:
@@ -263,20 +291,8 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
                         start_contacts, target_contacts, allow_extrapolation=True, noise_scale=noise_scale,
                         noise_ramp_steps=noise_ramp_steps, noise_correlation=noise_correlation,
                         foot_lock=foot_lock)
-    # the target take at the start take's rate, its keyframe at index b_out
-    target_out, b_out = _at_rate(target_take, take_fps, target_frame)
-    a_out = int(start_frame)
-    out = []
-    for s in samples:
-        if generated != length or abs(take_fps - fps) > 1e-9 * fps:
-            s = conform.retime(s, length + 2, take_fps)  # back onto the take's frames
-        head = slice(a_out, a_out + 1) if output == "transition" else slice(0, a_out + 1)
-        tail = slice(b_out, None) if output == "clip" else slice(b_out, b_out + 1)
-        motion = start_take.with_frames(
-            np.concatenate([start_take.rotations[head], s.rotations[1:-1], target_out.rotations[tail]]),
-            np.concatenate([start_take.positions[head], s.positions[1:-1], target_out.positions[tail]]))
-        out.append(from_model_frame(model, motion, scale))
-    return out
+    return _take_outputs(model, samples, start_take, start_frame, target_take, target_frame, generated, length,
+                         take_fps, output, scale)
 
 
 def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: int, length: int | None = None,
