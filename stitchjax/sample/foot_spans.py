@@ -35,6 +35,17 @@ def span_ids(mask):
     return jnp.where(mask, jnp.cumsum(start), 0)
 
 
+def _span_bounds(mask):
+    """(ids (T,) of :func:`span_ids`, first (T,), last (T,)): each frame's span and that span's first and last
+    frame (outside spans: the first and last frame outside any)."""
+    n = mask.shape[0]
+    t = jnp.arange(n)
+    ids = span_ids(mask)
+    first = jax.ops.segment_min(t, ids, num_segments=n + 1)[ids]
+    last = jax.ops.segment_max(t, ids, num_segments=n + 1)[ids]
+    return ids, first, last
+
+
 def drop_short_spans(mask, min_frames: int):
     """(T,) bool: ``mask`` without its runs shorter than ``min_frames``."""
     ids = span_ids(mask)
@@ -55,9 +66,7 @@ def span_targets(mask, ankle, foot_rotation, floor, up_axis: int = 1, plant_at: 
     middle frame, < 0: the generated foot's mean position and orientation over the span)."""
     n = mask.shape[0]
     t = jnp.arange(n)
-    ids = span_ids(mask)
-    first = jax.ops.segment_min(t, ids, num_segments=n + 1)[ids]
-    last = jax.ops.segment_max(t, ids, num_segments=n + 1)[ids]
+    ids, first, last = _span_bounds(mask)
     at_end = mask & (last == n - 1)
     at_both = at_end & (first == 0)
     u = (t / max(n - 1, 1))[:, None]
@@ -93,9 +102,7 @@ def release_room(mask):
     span over both keyframes and outside spans."""
     n = mask.shape[0]
     t = jnp.arange(n)
-    ids = span_ids(mask)
-    first = jax.ops.segment_min(t, ids, num_segments=n + 1)[ids]
-    last = jax.ops.segment_max(t, ids, num_segments=n + 1)[ids]
+    _, first, last = _span_bounds(mask)
     room = jnp.where(last == n - 1, t, jnp.where(first == 0, n - 1 - t, jnp.minimum(t, n - 1 - t)))
     return jnp.where(mask & ~((first == 0) & (last == n - 1)), room, n)
 
@@ -104,9 +111,7 @@ def reachable_spans(mask, reachable):
     """(T,) bool: the span frames kept: a span is cut at its first unreachable frame (the rest let go);
     a span touching the last frame is cut from that end instead (its plant is the target keyframe's)."""
     n = mask.shape[0]
-    ids = span_ids(mask)
-    last = jax.ops.segment_max(jnp.arange(n), ids, num_segments=n + 1)[ids]
-    first = jax.ops.segment_min(jnp.arange(n), ids, num_segments=n + 1)[ids]
+    _, first, last = _span_bounds(mask)
     at_end = mask & (last == n - 1) & (first > 0)
 
     def run(m, r):
@@ -127,9 +132,6 @@ def bridge_gaps(mask, max_gap: int):
     if max_gap <= 0:
         return mask
     n = mask.shape[0]
-    t = jnp.arange(n)
-    ids = span_ids(~mask)
-    first = jax.ops.segment_min(t, ids, num_segments=n + 1)[ids]
-    last = jax.ops.segment_max(t, ids, num_segments=n + 1)[ids]
+    _, first, last = _span_bounds(~mask)
     inner = (first > 0) & (last < n - 1) & (last - first + 1 <= max_gap)
     return mask | (~mask & inner)

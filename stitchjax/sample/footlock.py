@@ -103,7 +103,7 @@ class FootLockConfig:
     leave: float = 0.1
     min_frames: int = 3
     blend_frames: int = 8
-    soft_reach: float = SOFT_REACH
+    soft_reach: float = SOFT_REACH  # two_bone_ik's default too
     leash: float = 25.0
     plant_at: float = -1.0
     release_speed: float = 2.0
