@@ -1,5 +1,7 @@
 """A trained in-betweening model ready for inference: loaded from a training run, or freshly initialised.
 
+Size (~430 lines): one job, a model to and from files; both readers and the writer share the parameter layout.
+
     model = pretrained()                              # the release model shipped in stitchjax/pretrained/
     model = load_model("runs/quickstart")            # a training run (or a checkpoint folder)
     model = load_model("stitchjax/pretrained/lafan1_cpu_release")   # an exported model folder (bin/export)
