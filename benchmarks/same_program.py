@@ -29,8 +29,10 @@ from stitchjax import config as C, parallel
 from stitchjax.sample import inbetween
 from stitchjax.train import loop as train
 import os
-if os.path.exists(os.path.join(sys.argv[1], "stitchjax", "trained_model.py")):
+if os.path.exists(os.path.join(sys.argv[1], "stitchjax", "sample", "trained_model.py")):
     from stitchjax.sample.trained_model import random_model
+elif os.path.exists(os.path.join(sys.argv[1], "stitchjax", "trained_model.py")):  # before the stage subpackages
+    from stitchjax.trained_model import random_model
 else:  # checkouts from before the model-loading module (not found by import: an editable install elsewhere
     random_model = inbetween.random_model  # may still resolve the name)
 cfg = C.apply_overrides(C.load_config(sys.argv[1] + "/configs/lafan1_cpu.py"), sys.argv[4:])
