@@ -2,7 +2,7 @@
 (:mod:`stitchjax.accel.scan_gradients`) and of the taped replay (:mod:`stitchjax.accel.tape`).
 
 ``kernel_matmul`` is a product ``x @ W`` that can add a zero probe and record its input; ``ProbedDense``,
-``ProbedLSTMCell`` and ``ProbedMoEDense`` are ``networks``' plain layers (same parameters, same values) built on
+``ProbedLSTMCell`` and ``ProbedMoEDense`` are ``layers``' plain layers (same parameters, same values) built on
 it, and :func:`probed_generator` the generator made of them, which the training step's rollout runs.
 """
 from __future__ import annotations
@@ -11,9 +11,9 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from stitchjax.model import networks
+from stitchjax.model import layers, networks
 from stitchjax.accel import tape as tape_lib
-from stitchjax.accel.matmul import matmul
+from stitchjax.model.layers import matmul
 
 __all__ = ["SHARED_PROBES", "LSTM_GATES", "KERNEL_OUTPUT_TAPES", "kernel_matmul", "input_size", "ProbedDense",
            "ProbedLSTMCell", "ProbedMoEDense", "probed_generator", "RecordingHook"]
@@ -35,7 +35,7 @@ def kernel_matmul(module: nn.Module, x, kernel, name: str, dtype: str = "float32
     dtype: the operands' precision (see :func:`matmul`); the result is float32 either way.
 
     Plain matmul, except: with a mutable ``"inputs"`` collection the input (or its parts) is recorded under
-    ``name``; with a ``"probes"`` collection holding ``name`` (gradient probing, ``rollout.rollout_batch``)
+    ``name``; with a ``"probes"`` collection holding ``name`` (gradient probing, ``fast_rollout``)
     the kernel is held constant and the zero probe (..., out) is added to the product (a kernel of
     SHARED_PROBES is held constant and adds none: the other kernel's probe serves both). Replaying a tape
     (``stitchjax.accel.tape``) the kernel is held constant too: its output tape's cotangent is the output gradient.
@@ -65,8 +65,8 @@ def input_size(x) -> int:
     return sum(part.shape[-1] for part in _parts(x))
 
 
-class ProbedDense(networks.Dense):
-    """:class:`networks.Dense` whose matmul is a :func:`kernel_matmul` and whose output (activation included)
+class ProbedDense(layers.Dense):
+    """:class:`layers.Dense` whose matmul is a :func:`kernel_matmul` and whose output (activation included)
     is the output-tape point "output" (``stitchjax.accel.tape``)."""
 
     @nn.compact
@@ -74,11 +74,11 @@ class ProbedDense(networks.Dense):
         kernel = self.param("kernel", nn.initializers.lecun_normal(), (input_size(x), self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.features,))
         y = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype) + bias
-        return tape_lib.tape_point(self, "output", self.activation, y, networks.LAYER_FUNCTIONS[self.activation], True)
+        return tape_lib.tape_point(self, "output", self.activation, y, layers.LAYER_FUNCTIONS[self.activation], True)
 
 
-class ProbedLSTMCell(networks.LSTMCell):
-    """:class:`networks.LSTMCell` with :func:`kernel_matmul` products; each gate's nonlinearity is an
+class ProbedLSTMCell(layers.LSTMCell):
+    """:class:`layers.LSTMCell` with :func:`kernel_matmul` products; each gate's nonlinearity is an
     output-tape point (``LSTM_GATES``) and the cell's tanh a tape point "cell_tanh"."""
 
     @nn.compact
@@ -86,7 +86,7 @@ class ProbedLSTMCell(networks.LSTMCell):
         c, h = carry
         hidden = self.features
         input_kernel = self.param("input_kernel", nn.initializers.lecun_normal(), (input_size(x), 4 * hidden))
-        hidden_kernel = self.param("hidden_kernel", networks.orthogonal_blocks, (hidden, 4 * hidden))
+        hidden_kernel = self.param("hidden_kernel", layers.orthogonal_blocks, (hidden, 4 * hidden))
         bias = self.param("bias", nn.initializers.zeros, (4 * hidden,))
         gates = (kernel_matmul(self, x, input_kernel, "input_kernel", self.matmul_dtype)
                  + kernel_matmul(self, h, hidden_kernel, "hidden_kernel", self.matmul_dtype) + bias)
@@ -98,22 +98,22 @@ class ProbedLSTMCell(networks.LSTMCell):
         return (c, h), h
 
 
-class ProbedMoEDense(networks.MoEDense):
-    """:class:`networks.MoEDense` with a :func:`kernel_matmul` product; the experts' outputs are the
+class ProbedMoEDense(layers.MoEDense):
+    """:class:`layers.MoEDense` with a :func:`kernel_matmul` product; the experts' outputs are the
     output-tape point "output" and the activation after the blend (if any) the tape point "activation"."""
 
     @nn.compact
     def __call__(self, x, coefficients):
-        kernel = self.param("kernel", networks.expert_init, (input_size(x), self.num_experts, self.features))
+        kernel = self.param("kernel", layers.expert_init, (input_size(x), self.num_experts, self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.num_experts, self.features))
         flat = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype)
         expert_outputs = flat.reshape(flat.shape[:-1] + (self.num_experts, self.features)) + bias
         expert_outputs = tape_lib.tape_point(self, "output", "identity", expert_outputs,
-                                         networks.LAYER_FUNCTIONS["identity"], True)
+                                         layers.LAYER_FUNCTIONS["identity"], True)
         y = jnp.einsum("...e,...eo->...o", coefficients, expert_outputs)
         if self.activation == "identity":
             return y
-        return tape_lib.tape_point(self, "activation", self.activation, y, networks.LAYER_FUNCTIONS[self.activation])
+        return tape_lib.tape_point(self, "activation", self.activation, y, layers.LAYER_FUNCTIONS[self.activation])
 
 
 def probed_generator(spec) -> networks.Generator:

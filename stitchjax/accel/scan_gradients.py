@@ -8,7 +8,8 @@ gradients are the products' output gradients dy, and after the scan each kernel'
 x^T dy over all B x steps rows. Same gradients (tested against plain autodiff); train step -7 % and the
 update's compile time 90 -> 25 s on a 2-core Zen 3 CPU.
 
-:func:`gradients_after_scan` wraps any function of the generators that accepts probes; the rollout uses it.
+:func:`gradients_after_scan` wraps any function of the generators that accepts probes; the training step's
+rollout uses it (:mod:`stitchjax.accel.fast_rollout`).
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ import jax
 import jax.numpy as jnp
 
 from stitchjax.accel import tape
-from stitchjax.accel.matmul import MATMUL_DTYPES
+from stitchjax.model.layers import MATMUL_DTYPES
 from stitchjax.accel.probes import KERNEL_OUTPUT_TAPES, SHARED_PROBES
 
 __all__ = ["zero_probes", "kernel_gradients", "output_gradients", "add_kernel_gradients", "gradients_after_scan"]

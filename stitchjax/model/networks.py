@@ -1,8 +1,5 @@
 """Networks (flax.linen, pure init/apply): the S-CVAE generator and the LSGAN discriminators.
 
-Size (~420 lines): one job, the paper's networks; the generator's parts (encoders, posterior, prior heads,
-latent interpolation, gated experts) each stay a small named module here so one file shows the whole step.
-
 Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step::
 
     state (S) ──► state encoder  (3 FC) ─┐
@@ -17,10 +14,10 @@ Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step:
 The expert blend mixes each layer's expert *outputs* (``einsum`` over the expert axis), never a blended
 weight matrix per example.
 
-The layers are plain flax modules (``Dense``, ``LSTMCell``, ``MoEDense``; ``model.matmul_dtype`` sets their
-matmuls' operand precision, ``accel.matmul``). The generator takes its layer classes as module attributes
-(``dense``, ``lstm_cell``, ``moe_dense``), as flax's ResNet takes ``conv``: the training step's fast paths swap
-in layers with the same parameters that also probe and tape (``stitchjax.accel``).
+The layers are plain flax modules (:mod:`stitchjax.model.layers`: ``Dense``, ``LSTMCell``, ``MoEDense``;
+``model.matmul_dtype`` sets their matmuls' operand precision). The generator takes its layer classes as module
+attributes (``dense``, ``lstm_cell``, ``moe_dense``), as flax's ResNet takes ``conv``, so layers with the same
+parameters may stand in for them.
 
 Discriminators (RMIB style): a temporal convolution whose kernel spans the whole window (2 or 10 frames)
 over per-frame features, then dense layers; one score per window position.
@@ -32,146 +29,24 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from typing import Any
 
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
 from stitchjax.data import features
-from stitchjax.accel.matmul import elu, matmul
-from stitchjax.config import CHOICES
+from stitchjax.model.layers import MLP, Dense, LSTMCell, ModuleDef, MoEDense
 
 __all__ = [
-    "Dense", "LSTMCell", "MLP", "MoEDense", "GeneratorSpec", "generator_spec", "DiscriminatorSpec",
-    "discriminator_spec", "ModelSpec", "model_spec", "Generator", "Posterior", "LatentMLP", "decode",
-    "sample_latent", "Discriminator", "init_params", "make_generator", "make_discriminator", "initial_carry",
-    "blend_gaussians", "disc_feature_dim", "phase_dim", "generator_input_dims",
+    "GeneratorSpec", "generator_spec", "DiscriminatorSpec", "discriminator_spec", "ModelSpec", "model_spec",
+    "Generator", "Posterior", "LatentMLP", "decode", "sample_latent", "Discriminator", "init_params",
+    "make_generator", "make_discriminator", "initial_carry", "blend_gaussians", "disc_feature_dim", "phase_dim",
+    "generator_input_dims", "GAUSSIAN_KEYS",
 ]
 
-_ACTIVATION_FUNCTIONS = {"elu": elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
-                         "leaky_relu": lambda x: nn.leaky_relu(x, 0.2), "tanh": jnp.tanh}
-# The allowed names are config.CHOICES' (one list); every one of them must have a function here.
-_ACTIVATIONS = {name: _ACTIVATION_FUNCTIONS[name] for name in CHOICES[("model", "activation")]}
-
-
-# What a layer may apply to its matmul output: the activations, and the identity / softmax of output layers.
-LAYER_FUNCTIONS = {**_ACTIVATIONS, "identity": lambda y: y, "softmax": lambda y: jax.nn.softmax(y, axis=-1)}
-
-ModuleDef = Any  # a flax module class (or a functools.partial of one)
-
-
-def _joined(x):
-    """A layer input given as a tuple of parts (..., in_i) joined along the last axis; x itself otherwise."""
-    return jnp.concatenate(x, axis=-1) if isinstance(x, (tuple, list)) else x
-
-
-class Dense(nn.Module):
-    """Dense layer x (..., in) -> activation(x @ kernel + bias) (..., features), flax ``nn.Dense``
-    initialisation and parameter names; x may be a tuple of parts, joined along the last axis.
-
-    activation: a ``model.activation`` name, "identity" or "softmax" (over the features);
-    matmul_dtype: the operands' precision (``accel.matmul.matmul``).
-    """
-
-    features: int
-    matmul_dtype: str = "float32"
-    activation: str = "identity"
-
-    @nn.compact
-    def __call__(self, x):
-        x = _joined(x)
-        kernel = self.param("kernel", nn.initializers.lecun_normal(), (x.shape[-1], self.features))
-        bias = self.param("bias", nn.initializers.zeros, (self.features,))
-        return LAYER_FUNCTIONS[self.activation](matmul(x, kernel, self.matmul_dtype) + bias)
-
-
-def orthogonal_blocks(key, shape, dtype=jnp.float32):
-    """(H, n * H) kernel made of n independent orthogonal (H, H) blocks (one per LSTM gate)."""
-    rows, cols = shape
-    keys = jax.random.split(key, cols // rows)
-    return jnp.concatenate([nn.initializers.orthogonal()(k, (rows, rows), dtype) for k in keys], axis=1)
-
-
-class LSTMCell(nn.Module):
-    """LSTM cell with fused gate kernels: carry (c, h) each (..., H), x (..., in) -> (carry, h).
-
-    x may be a tuple of parts, joined along the last axis.
-    gates = x @ input_kernel (in, 4H) + h @ hidden_kernel (H, 4H) + bias (4H), gate order i, f, g, o;
-    c' = sigmoid(f) c + sigmoid(i) tanh(g), h' = sigmoid(o) tanh(c'). Initialisation as flax's LSTM
-    cells (LeCun normal input kernel, orthogonal hidden kernel per gate, zero bias). Two matmuls per
-    step and no per-gate concatenation inside the rollout's scan.
-    """
-
-    features: int
-    matmul_dtype: str = "float32"
-
-    @nn.compact
-    def __call__(self, carry, x):
-        c, h = carry
-        x = _joined(x)
-        hidden = self.features
-        input_kernel = self.param("input_kernel", nn.initializers.lecun_normal(), (x.shape[-1], 4 * hidden))
-        hidden_kernel = self.param("hidden_kernel", orthogonal_blocks, (hidden, 4 * hidden))
-        bias = self.param("bias", nn.initializers.zeros, (4 * hidden,))
-        gates = matmul(x, input_kernel, self.matmul_dtype) + matmul(h, hidden_kernel, self.matmul_dtype) + bias
-        i, f, g, o = (fn(gate) for fn, gate in zip((jax.nn.sigmoid, jax.nn.sigmoid, jnp.tanh, jax.nn.sigmoid),
-                                                  jnp.split(gates, 4, axis=-1)))
-        c = f * c + i * g
-        h = o * jnp.tanh(c)
-        return (c, h), h
-
-
-class MLP(nn.Module):
-    """Dense layers of the given widths; activation after every layer but (optionally) the last, which then
-    applies ``last_activation``."""
-
-    widths: tuple
-    activation: str = "elu"
-    activate_last: bool = True
-    matmul_dtype: str = "float32"
-    last_activation: str = "identity"  # the last layer's, without activate_last ("softmax": gating)
-    dense: ModuleDef = Dense
-
-    @nn.compact
-    def __call__(self, x):
-        for i, width in enumerate(self.widths):
-            last = i == len(self.widths) - 1
-            activation = self.last_activation if last and not self.activate_last else self.activation
-            x = self.dense(width, self.matmul_dtype, activation, name=f"dense_{i}")(x)
-        return x
-
-
-# The experts' kernels (in, E, out): LeCun normal per expert (fan in = in).
-expert_init = nn.initializers.variance_scaling(1.0, "fan_in", "truncated_normal", in_axis=0, out_axis=-1,
-                                               batch_axis=(1,))
-
-
-class MoEDense(nn.Module):
-    """Dense layer of E experts blended by per-example coefficients, then ``activation``.
-
-    x (..., in), coefficients (..., E) -> (..., out) = activation(sum_e c_e (x @ W_e + b_e)). The kernel is
-    stored as (in, E, out), so all experts' outputs come from one plain 2-D matmul x @ kernel.reshape(in, E*out)
-    followed by the weighted sum over experts. That equals using the blended weights sum_e c_e W_e, never
-    materialises a per-example weight matrix, and (unlike a 3-D einsum) leaves XLA no weight-sized
-    transposes to do inside the rollout's scan: the train step is ~16-24% faster on a CPU.
-    x may be a tuple of parts, joined along the last axis.
-    """
-
-    features: int
-    num_experts: int
-    matmul_dtype: str = "float32"
-    activation: str = "identity"
-
-    @nn.compact
-    def __call__(self, x, coefficients):
-        x = _joined(x)
-        kernel = self.param("kernel", expert_init, (x.shape[-1], self.num_experts, self.features))
-        bias = self.param("bias", nn.initializers.zeros, (self.num_experts, self.features))
-        flat = matmul(x, kernel.reshape(kernel.shape[0], -1), self.matmul_dtype)
-        expert_outputs = flat.reshape(flat.shape[:-1] + (self.num_experts, self.features)) + bias
-        return LAYER_FUNCTIONS[self.activation](jnp.einsum("...e,...eo->...o", coefficients, expert_outputs))
-
+# The Gaussians a generator step outputs (:class:`Generator`): current and target heads, the prior p, the posterior q.
+GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend", "mu_posterior",
+                 "logvar_posterior")
 
 def blend_gaussians(mu, logvar, mu_t, logvar_t, gamma, mode: str = "std"):
     """Latent interpolation (paper Eq. 1): blend N(mu, s^2) and N(mu_t, s_t^2) with weight gamma.

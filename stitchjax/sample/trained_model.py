@@ -414,7 +414,7 @@ def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None
 
 def with_matmul_dtype(model: Model, dtype: str) -> Model:
     """The same model computing its matmuls on ``dtype`` operands ("float32" or "bfloat16", float32
-    accumulation either way; see ``accel.matmul.matmul``). Parameters are unchanged, so a float32-trained
+    accumulation either way; see ``model.layers.matmul``). Parameters are unchanged, so a float32-trained
     model can sample in bfloat16: ~1.8x faster on CPUs with AMX / AVX512-BF16 (benchmarks/README.md); with
     the same seed, joint positions move by ~0.2 cm on average (up to ~1 cm mid-transition)."""
     try:

@@ -5,10 +5,9 @@ import numpy as np
 import pytest
 
 from stitchjax import config as C
+from stitchjax.model import layers
 from stitchjax.model import networks as N
-from stitchjax.accel import matmul as accel_matmul
 from stitchjax.accel import probes
-from stitchjax.accel.matmul import elu
 from stitchjax.accel import tape
 
 
@@ -52,7 +51,7 @@ def test_discriminator_scores_one_per_window_position():
 
 
 def test_moe_einsum_equals_blended_weights():
-    layer = N.MoEDense(features=5, num_experts=4)
+    layer = layers.MoEDense(features=5, num_experts=4)
     x = jax.random.normal(jax.random.PRNGKey(1), (3, 6))
     coefficients = jax.nn.softmax(jax.random.normal(jax.random.PRNGKey(2), (3, 4)))
     params = jax.jit(layer.init)(jax.random.PRNGKey(0), x, coefficients)
@@ -93,7 +92,7 @@ def test_plain_decoder_without_phase_modulation():
 
 
 def test_lstm_cell_matches_the_lstm_equations():
-    cell = N.LSTMCell(features=3)
+    cell = layers.LSTMCell(features=3)
     x = jax.random.normal(jax.random.PRNGKey(1), (2, 5))
     carry = (jax.random.normal(jax.random.PRNGKey(2), (2, 3)), jax.random.normal(jax.random.PRNGKey(3), (2, 3)))
     params = cell.init(jax.random.PRNGKey(0), carry, x)
@@ -166,7 +165,7 @@ def test_tape_point_records_then_replays_with_the_derivative_and_the_output_grad
 
 @pytest.mark.parametrize("kind", ["elu", "relu", "leaky_relu", "sigmoid", "tanh", "softmax"])
 def test_tape_derivatives_match_autodiff(kind):
-    fns = {"elu": elu, "relu": jax.nn.relu, "leaky_relu": lambda v: jax.nn.leaky_relu(v, 0.2),
+    fns = {"elu": layers.elu, "relu": jax.nn.relu, "leaky_relu": lambda v: jax.nn.leaky_relu(v, 0.2),
            "sigmoid": jax.nn.sigmoid, "tanh": jnp.tanh, "softmax": lambda v: jax.nn.softmax(v, axis=-1)}
     x = jax.random.normal(jax.random.PRNGKey(2), (5, 7)) * 2.0
     dy = jax.random.normal(jax.random.PRNGKey(3), (5, 7))
@@ -178,13 +177,13 @@ def test_bfloat16_matmul_rounds_only_the_operands_forward_and_backward():
     x = jax.random.normal(jax.random.PRNGKey(1), (2, 5, 48))
     kernel = jax.random.normal(jax.random.PRNGKey(2), (48, 24))
     as_bf16 = lambda a: np.asarray(jnp.asarray(a).astype(jnp.bfloat16).astype(jnp.float32), np.float64)  # noqa: E731
-    y = accel_matmul.matmul(x, kernel, "bfloat16")
+    y = layers.matmul(x, kernel, "bfloat16")
     assert y.dtype == jnp.float32
     np.testing.assert_allclose(y, as_bf16(x) @ as_bf16(kernel), rtol=1e-5, atol=1e-4)
-    assert np.abs(np.asarray(y) - np.asarray(accel_matmul.matmul(x, kernel))).max() > 1e-3  # really rounded
+    assert np.abs(np.asarray(y) - np.asarray(layers.matmul(x, kernel))).max() > 1e-3  # really rounded
 
     def loss(x, kernel, dtype):
-        return jnp.sum(jnp.sin(accel_matmul.matmul(x, kernel, dtype)))
+        return jnp.sum(jnp.sin(layers.matmul(x, kernel, dtype)))
 
     dx, dkernel = jax.grad(loss, argnums=(0, 1))(x, kernel, "bfloat16")
     assert dx.dtype == jnp.float32 and dkernel.dtype == jnp.float32
@@ -196,7 +195,7 @@ def test_bfloat16_matmul_rounds_only_the_operands_forward_and_backward():
     dx32, dkernel32 = jax.grad(loss, argnums=(0, 1))(x, kernel, "float32")
     np.testing.assert_allclose(dkernel, dkernel32, atol=0.05 * float(np.abs(dkernel32).max()))
     with pytest.raises(ValueError, match="matmul_dtype='float16'"):
-        accel_matmul.matmul(x, kernel, "float16")
+        layers.matmul(x, kernel, "float16")
 
 
 def test_generator_matmul_dtype_keeps_parameters_and_changes_outputs_slightly():
@@ -226,14 +225,14 @@ def test_elu_has_flax_values_and_gradients_formed_from_its_output():
     import flax.linen as nn
 
     x = jnp.concatenate([jnp.linspace(-8.0, 8.0, 101), jnp.zeros(1)])
-    np.testing.assert_array_equal(elu(x), nn.elu(x))
-    ours = jax.grad(lambda v: jnp.sum(jnp.sin(elu(v))))(x)
+    np.testing.assert_array_equal(layers.elu(x), nn.elu(x))
+    ours = jax.grad(lambda v: jnp.sum(jnp.sin(layers.elu(v))))(x)
     flax_ = jax.grad(lambda v: jnp.sum(jnp.sin(nn.elu(v))))(x)
     np.testing.assert_allclose(ours, flax_, rtol=1e-6, atol=1e-7)
-    slopes = jax.vmap(jax.grad(elu))(x)  # 1 for x >= 0 here (x = 0 included, as nn.elu), exp(x) below
+    slopes = jax.vmap(jax.grad(layers.elu))(x)  # 1 for x >= 0 here (x = 0 included, as nn.elu), exp(x) below
     np.testing.assert_allclose(slopes, np.where(np.asarray(x) > 0, 1.0, np.exp(np.asarray(x))), rtol=1e-6,
                                atol=1e-7)  # y + 1 for y near -1: absolute rounding of float32
-    np.testing.assert_allclose(jax.jvp(elu, (x,), (jnp.ones_like(x),))[1], slopes, rtol=1e-6)  # forward mode
+    np.testing.assert_allclose(jax.jvp(layers.elu, (x,), (jnp.ones_like(x),))[1], slopes, rtol=1e-6)  # forward mode
 
 
 @pytest.mark.parametrize("extra", [(), ("model.phase_modulation=false",), ("model.matmul_dtype=bfloat16",)])
