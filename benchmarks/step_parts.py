@@ -88,7 +88,9 @@ def parts(batch: int, length: int, dtype: str, reps: int, profile_dir: pathlib.P
     import jax
 
     from stitchjax import specs
-    from stitchjax.model import losses, rollout
+    from stitchjax.accel import fast_rollout
+    from stitchjax.model import batch as batch_lib
+    from stitchjax.model import objective, rollout
 
     config = run_all.bench_config(batch, length, [f"model.matmul_dtype={dtype}", f"train.scan_remat={scan_remat}"])
     whole = run_all.JaxTrain(config, length)
@@ -96,14 +98,15 @@ def parts(batch: int, length: int, dtype: str, reps: int, profile_dir: pathlib.P
     sample = whole.sample(whole.dataset, state.key, state.step)
     key = jax.random.PRNGKey(3)
     generators = {name: state.params[name] for name in ("forward", "backward")}
-    spec = specs.train_spec(config)
+    spec, rollout_batch = specs.train_spec(config), fast_rollout.training_rollout_batch(config.train)
 
     def forward(generators, phase_params, sample):
-        out = rollout.rollout_batch(generators, phase_params, sample, key, rollout.rollout_spec(config), length)
+        out = batch_lib.rollout_batch(generators, phase_params, sample, key, rollout.rollout_spec(config), length)
         return out["global_positions"]
 
     def loss(generators, phase_params, sample):
-        return losses.generator_loss({**state.params, **generators}, phase_params, sample, key, spec, length)[0]
+        return objective.generator_loss({**state.params, **generators}, phase_params, sample, key, spec, length,
+                                        rollout_batch=rollout_batch)[0]
 
     rows = []
     for name, fn in (("rollout", forward), ("generator loss + grad", jax.grad(loss))):

@@ -5,8 +5,8 @@ latent interpolation prior, the recognition network q(z | LSTM state, next frame
 decoder with a gating MLP on the phase features, or a plain MLP decoder, z fed to every decoder layer,
 the phase network, the two LSGAN discriminators), the same bidirectional aligned rollout with stitching as
 ``stitchjax.model.rollout`` (a Python loop over frames, batched over windows), the same losses as
-``stitchjax.model.losses`` (state, KL(q || p) with free bits and warm-up or the prior's KL, FK, stitching,
-LSGAN, foot skate), and ``torch.optim.AdamW`` with the config's settings for the generators and the
+``stitchjax.model.losses`` and ``objective`` (state, KL(q || p) with free bits and warm-up or the prior's KL, FK,
+stitching, LSGAN, foot skate), and ``torch.optim.AdamW`` with the config's settings for the generators and the
 discriminators. It exists to measure stitchjax against (benchmarks/run_all.py); it is not part of the
 package, and PyTorch is only an optional extra (``pip install -e '.[bench]'``).
 
@@ -557,7 +557,7 @@ class Twin:
 
     def _targets(self, batch, length: int, count: int, backward: bool):
         """Ground truth of a direction's first ``count`` frames in its own time (forward frame i + 1, or
-        backward frame L - i, reversed-time velocities), as ``rollout.direction_frames``."""
+        backward frame L - i, reversed-time velocities), as ``batch.direction_frames``."""
         i = np.arange(count + 1)
         frames = np.clip((length + 1 - i) if backward else i, 0, batch["rotations"].shape[1] - 1)
         root = batch["root_positions"][:, frames]
@@ -568,7 +568,7 @@ class Twin:
 
     def next_frame_states(self, batch: dict, length: int, steps: int | None = None) -> dict:
         """The posterior's inputs {"forward", "backward"}: (B, steps, S) ground-truth states of the frame each
-        step makes (``rollout.next_frame_states``); steps defaults to what a rollout of ``length`` runs."""
+        step makes (``batch.next_frame_states``); steps defaults to what a rollout of ``length`` runs."""
         if steps is None:
             steps = max(schedule(self.config, length)[2:])
         out = {}
@@ -732,8 +732,8 @@ def jax_noise(key, batch_size: int, config, max_length: int) -> np.ndarray:
 
 
 def generator_noise(key, batch_size: int, config, max_length: int) -> np.ndarray:
-    """The latent noise (B, n, 2, latent) of ``losses.generator_loss(..., key, ...)``: its rollout
-    (``losses.generator_rollouts``) draws from the first half of ``jax.random.split(key)``."""
+    """The latent noise (B, n, 2, latent) of ``objective.generator_loss(..., key, ...)``: its rollout
+    (``objective.generator_rollouts``) draws from the first half of ``jax.random.split(key)``."""
     import jax
 
     return jax_noise(jax.random.split(key)[0], batch_size, config, max_length)
@@ -744,14 +744,16 @@ def _jax_losses(config):
     """stitchjax's generator + discriminator losses, jitted once per config (length is traced)."""
     import jax
     from stitchjax import specs
-    from stitchjax.model import losses
+    from stitchjax.accel import fast_rollout
+    from stitchjax.model import objective
 
-    spec = specs.train_spec(config)
+    spec, rollout_batch = specs.train_spec(config), fast_rollout.training_rollout_batch(config.train)
 
     def both(params, phase_params, batch, key, length, kl_scale):
-        total, terms, generated = losses.generator_loss(params, phase_params, batch, key, spec, length, kl_scale)
-        disc_total, disc_terms = losses.discriminator_loss(params, phase_params, batch, key, spec, length,
-                                                           generated)
+        total, terms, generated = objective.generator_loss(params, phase_params, batch, key, spec, length, kl_scale,
+                                                           rollout_batch)
+        disc_total, disc_terms = objective.discriminator_loss(params, phase_params, batch, key, spec, length,
+                                                              generated)
         return total, terms, disc_total, disc_terms
 
     return jax.jit(both)
@@ -801,19 +803,20 @@ def check_equal_gradients(config, params, phase_params, batch_np: dict, length: 
     import jax
     import jax.numpy as jnp
     from stitchjax import specs
-    from stitchjax.model import losses
+    from stitchjax.accel import fast_rollout
+    from stitchjax.model import objective
 
     kl_scale = kl_warmup(step, config.loss.kl_warmup_steps)
     batch_j = {k_: jnp.asarray(v) for k_, v in batch_np.items()}
     generators = {name: params[name] for name in ("forward", "backward")}
-    spec = specs.train_spec(config)
+    spec, rollout_batch = specs.train_spec(config), fast_rollout.training_rollout_batch(config.train)
     discriminators = {name: params[name] for name in ("disc_short", "disc_long")}
 
-    def objective(gen_params):
-        return losses.generator_loss({**gen_params, **discriminators}, phase_params, batch_j, key, spec,
-                                     jnp.int32(length), kl_scale)[0]
+    def generator_loss(gen_params):
+        return objective.generator_loss({**gen_params, **discriminators}, phase_params, batch_j, key, spec,
+                                        jnp.int32(length), kl_scale, rollout_batch)[0]
 
-    grads = jax.jit(jax.grad(objective))(generators)
+    grads = jax.jit(jax.grad(generator_loss))(generators)
     twin, batch_t, eps = _twin_and_batch(config, params, phase_params, batch_np, key)
     twin.discriminator_modules.requires_grad_(False)
     loss, _, _ = twin.generator_loss(batch_t, length, eps, kl_scale)

@@ -3,9 +3,9 @@
 Data flow, one subpackage per stage; a module imports only from its own stage, the stages to its left and the
 shared modules at the top (rotations, skeleton, config, specs, checkpoints, parallel):
 
-    data/ (BVH, windows, features) -> model/ (networks, rollout, losses) -> sample/ (inbetween, takes, footlock)
-    -> eval/ (metrics, protocols, figures) -> train/ (step, loop, schedule, resume)
-    accel/: speed machinery beside the model (the training step opts in; the model never needs it)
+    data/ (BVH, windows, features) -> model/ (networks, rollout, losses, objective) -> sample/ (inbetween, takes,
+    footlock) -> eval/ (metrics, protocols, figures) -> train/ (step, loop, schedule, resume)
+    accel/: speed machinery beside the model (the training step opts in; the model never imports it)
 
 README.md ("What is where") gives each module's one job.
 

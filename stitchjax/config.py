@@ -1,5 +1,7 @@
 """Experiment configuration: frozen dataclasses holding every hyperparameter.
 
+Size (~500 lines): the single list of every field, its default, its reason and its allowed values, in one place.
+
 ``Config(data, model, loss, train, phase)``. Each section lists the paper's fields first (``# paper``, section
 4.4 of Ren et al. 2023, each default the paper's value), then the choices the paper leaves open (each with a
 one-line ``# reason``), then the extensions (:data:`EXTENSIONS`): mechanisms the paper does not have, all off by
@@ -111,7 +113,7 @@ class ModelConfig:
     keyframe_velocity: str = "zero"  # "zero": keyframes are poses, root velocity input 0 (the paper); "mean": both get
     # the transition's mean root velocity, (target root - start root) / (L + 1)
     noise_correlation: float = 0.0  # 0: independent latent noise per frame (the paper); rho in [0, 1]: AR(1) noise
-    # over frames, each frame still standard normal (rollout.correlated_noise), at training and as sampling default
+    # over frames, each frame still standard normal (noise.correlated_noise), at training and as sampling default
     posterior_horizon: int = 1  # 1: q(z | h, ground-truth next frame); k > 1: q sees the frame k steps ahead
     # (clipped at the keyframe it heads for) with the root's mean velocity over those k steps
 
@@ -140,9 +142,9 @@ class LossConfig:
     prior_sample_fraction: float = 0.0  # this fraction of each batch's windows is rolled out with z from the prior
     # p, as at inference, instead of from q, and every term scores them
     prior_sample_reconstruction_weight: float = 1.0  # weight of the state and FK terms on those prior windows
-    # (1 = every window alike; losses.reconstruction_weights)
+    # (1 = every window alike; objective.reconstruction_weights)
     prior_best_of: int = 1  # > 1 rolls each prior window out this many times; the state and FK terms score only
-    # the copy nearest the ground truth (Bhattacharyya et al. 2018; losses.prior_copies, losses.best_of_weights)
+    # the copy nearest the ground truth (Bhattacharyya et al. 2018; objective.prior_copies, objective.best_of_weights)
     foot_skate_weight: float = 0.0  # > 0 adds losses.foot_skate_loss: the feet's movement where they are in contact
     foot_skate_contacts: str = "truth"  # which feet that term holds: "truth" = the ground truth's contact labels;
     # "height" = the generated foot near the ground (the foot-slide metric's weight); "height_either" = near the
@@ -184,9 +186,10 @@ class TrainConfig:
     # --- speed (benchmarks/README.md)
     weight_gradients_after_scan: bool = True  # reason: same gradients, faster (one matmul per kernel after the scan)
     scan_remat: str = "none"  # reason: autodiff's default; what the rollout's scan keeps for the backward pass
-    # (rollout.SCAN_REMAT): "none" = every intermediate; "dots" = only matmul outputs; "nothing" = only the carry;
-    # "taped" = one undifferentiated scan records a tape that is replayed differentiated (stitchjax/accel/tape.py;
-    # needs weight_gradients_after_scan and a tapeable model.activation); the same gradients with each
+    # (accel.fast_rollout.SCAN_REMAT): "none" = every intermediate; "dots" = only matmul outputs; "nothing" = only
+    # the carry; "taped" = one undifferentiated scan records a tape that is replayed differentiated
+    # (stitchjax/accel/tape.py; needs weight_gradients_after_scan and a tapeable model.activation); the same
+    # gradients with each
     length_buckets: tuple = (12, 24, 50)  # reason: static scan lengths (one compile each) beat one masked length
     # (the window is cut to bucket + 2 frames); () = one traced length masked in the full window, one compile
     # --- extensions (off by default; config.EXTENSIONS)
@@ -478,7 +481,7 @@ CHOICES = {
     ("model", "keyframe_velocity"): ("zero", "mean"),
     ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
     ("loss", "foot_skate_contacts"): ("truth", "height", "height_either"),
-    ("train", "scan_remat"): ("none", "dots", "nothing", "taped"),  # rollout.SCAN_REMAT has one policy each
+    ("train", "scan_remat"): ("none", "dots", "nothing", "taped"),  # accel.fast_rollout.SCAN_REMAT: one each
     ("train", "length_after_schedule"): ("max", "uniform"),  # schedule.transition_length
 }
 """The values a string field takes, checked by :func:`apply_overrides` before any work starts."""

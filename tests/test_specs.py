@@ -7,7 +7,7 @@ import pytest
 
 from stitchjax import config as C
 from stitchjax import specs
-from stitchjax.model import losses, networks, rollout
+from stitchjax.model import losses, networks, objective, rollout
 from stitchjax.skeleton import LAFAN1_FEET
 
 
@@ -22,8 +22,17 @@ def _imported_modules(module) -> set:
     return names
 
 
+def test_the_model_imports_none_of_the_speed_machinery():
+    """Only the training step chooses accel's fast paths: no module of stitchjax.model imports stitchjax.accel."""
+    folder = pathlib.Path(networks.__file__).parent
+    for path in sorted(folder.glob("*.py")):
+        names = _imported_modules(type("M", (), {"__file__": str(path)}))
+        assert not [name for name in names if "accel" in name], f"{path.name} imports stitchjax.accel"
+
+
 def test_losses_take_the_skeleton_from_a_spec_not_from_the_dataset_registry():
-    assert not {"datasets", "conform", "stitchjax.data.datasets", "stitchjax.data.conform"} & _imported_modules(losses)
+    for module in (losses, objective):
+        assert not {"datasets", "conform", "stitchjax.data.datasets", "stitchjax.data.conform"} & _imported_modules(module)
     skeleton = specs.skeleton_spec(C.Config())
     assert skeleton.feet == tuple(LAFAN1_FEET)
     assert (skeleton.up_axis, skeleton.up_index, skeleton.up_sign) == ("+y", 1, 1)
@@ -32,7 +41,7 @@ def test_losses_take_the_skeleton_from_a_spec_not_from_the_dataset_registry():
     folder = specs.skeleton_spec(C.apply_overrides(C.Config(), ["data.dataset=bvh_folder"]))
     assert folder.feet is None  # read per file: the foot terms refuse it, naming the field to unset
     with pytest.raises(ValueError, match="loss.foot_skate_weight"):
-        losses._fixed_feet(folder, "loss.foot_skate_weight")
+        objective._fixed_feet(folder, "loss.foot_skate_weight")
 
 
 def test_specs_are_hashable_and_hold_only_what_their_readers_read():

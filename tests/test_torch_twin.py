@@ -21,6 +21,7 @@ import run_all  # noqa: E402
 import torch_twin  # noqa: E402
 from stitchjax import config as config_lib  # noqa: E402
 from stitchjax.data import features, phase  # noqa: E402
+from stitchjax.model import batch as batch_lib
 from stitchjax.model import networks, rollout
 
 TINY = ["model.encoder_widths=32,32,16", "model.lstm_size=32", "model.latent_dim=8", "model.decoder_widths=32,32",
@@ -112,14 +113,14 @@ def test_twin_matches_stitchjax_gradients():
 
 
 def test_twin_next_frame_states_match_stitchjax(tiny):
-    """The posterior's ground-truth inputs are the states of rollout.next_frame_states, step by step."""
+    """The posterior's ground-truth inputs are the states of batch.next_frame_states, step by step."""
     config, _, _, data = tiny
     twin = torch_twin.Twin(config)
     batch = torch_twin.batch_to_torch(data, np.arange(3))
     n = torch_twin.num_steps(config, 12)
     for length in (12, 7, 1):
-        expected = rollout.next_frame_states({k: jnp.asarray(v) for k, v in data.items()}, length, n,
-                                             rollout.rollout_spec(config))
+        expected = batch_lib.next_frame_states({k: jnp.asarray(v) for k, v in data.items()}, length, n,
+                                               rollout.rollout_spec(config))
         got = twin.next_frame_states(batch, length)
         steps = max(torch_twin.schedule(config, length)[2:])
         for name in ("forward", "backward"):

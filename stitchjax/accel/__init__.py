@@ -1,7 +1,8 @@
 """Speed machinery beside the model: same numbers, less time or memory; the paper's model needs none of it.
+The training step opts in (``train.loop.make_update_step``); nothing under ``stitchjax.model`` imports it.
 
-- :mod:`~stitchjax.accel.matmul`: the bfloat16-operand matmul with its own gradient (``model.matmul_dtype``)
-  and the ELU whose derivative comes from its output.
+- :mod:`~stitchjax.accel.fast_rollout`: the training step's rollout of a batch, with the fast paths of
+  ``train.weight_gradients_after_scan`` and ``train.scan_remat``.
 - :mod:`~stitchjax.accel.probes`: ``kernel_matmul``, the generator's matmuls with zero probes and recorded
   inputs.
 - :mod:`~stitchjax.accel.scan_gradients`: the generator's weight gradients formed after the rollout's scan

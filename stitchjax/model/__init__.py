@@ -1,1 +1,3 @@
-"""The paper's model: the S-CVAE generator and discriminators, the bidirectional rollout, and the losses."""
+"""The paper's model: the S-CVAE generator and discriminators (``layers``, ``networks``), the bidirectional
+rollout (``rollout``, ``stitching``, ``noise``; ``batch`` for training windows), the loss terms (``losses``) and
+the objectives (``objective``)."""

@@ -75,7 +75,7 @@ def _compiled_sampler(spec, length: int, num_candidates: int, noise_scale: float
 
     spec: the model's ``rollout.RolloutSpec``. z is drawn from the prior p (the ground truth is never an
     input); noise_scale multiplies its noise, noise_correlation correlates it over frames
-    (``rollout.correlated_noise``), noise_ramp_steps ramps it up from each keyframe (``rollout.noise_ramp``).
+    (``noise.correlated_noise``), noise_ramp_steps ramps it up from each keyframe (``noise.noise_ramp``).
 
     start / target: dicts of (B, ...) keyframes as ``rollout.rollout`` wants them; offsets (B, J, 3).
     Every window gets ``num_candidates`` rollouts (keys: split(key, B), then split(window key,
@@ -136,9 +136,9 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
     of M x S samples, and the S with the lowest stitching loss are returned in increasing order.
     noise_scale: factor on the latent noise (0: every sample is the same, the prior's mean path).
     noise_correlation: in [0, 1], the noise's correlation from one frame to the next (0: independent per
-      frame, the paper's; ``rollout.correlated_noise``); None: the model's ``model.noise_correlation``.
+      frame, the paper's; ``noise.correlated_noise``); None: the model's ``model.noise_correlation``.
     noise_ramp_steps: >= 0; the noise of each direction rises linearly from 0 at the frame next to its
-      keyframe to full at this many steps (0: full from the first frame, the paper's; ``rollout.noise_ramp``).
+      keyframe to full at this many steps (0: full from the first frame, the paper's; ``noise.noise_ramp``).
     """
     _check_request(model, length, num_samples, search, warn=True)
     if noise_correlation is None:
@@ -308,9 +308,9 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     allow_extrapolation: a length beyond ``model.trained_max_length`` is an InbetweenError unless True.
     noise_scale: factor on the latent noise (1: the model's own spread; 0: one motion, the prior's mean);
     noise_ramp_steps: the noise rises from 0 at the frames next to the keyframes to full over this many
-      frames (0: full from the first frame, the paper's sampling; ``rollout.noise_ramp``);
+      frames (0: full from the first frame, the paper's sampling; ``noise.noise_ramp``);
     noise_correlation: the noise's correlation from one frame to the next (0: independent per frame, the
-      paper's; ``rollout.correlated_noise``).
+      paper's; ``noise.correlated_noise``).
       Each of the three left None takes the model's default sampling (``model.sampling``: the release model's
       is chosen on the validation split to spread the samples visibly; a training run's is the paper's,
       ``model.paper_sampling``).

@@ -12,9 +12,10 @@ Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `tr
 - `make_train_step(config, mesh)` -> `train_step(state, dataset, length) -> (state, metrics)`, jitted with the
   state donated. The whole training set lives on the device(s) as arrays with a leading window axis; each
   step draws its batch indices on device from `fold_in(state.key, state.step)`, gathers the windows, runs ONE
-  rollout per generator (inside `losses.generator_loss`), and updates both generators and both
+  rollout per generator (inside `objective.generator_loss`), and updates both generators and both
   discriminators with separate AdamW optimisers. `length` (the transition length) is a traced int32, so
-  the progressive schedule never recompiles.
+  the progressive schedule never recompiles. The train step alone chooses the fast paths of `config.train`
+  (`stitchjax.accel.fast_rollout`); the model's rollout runs the plain model.
 - `schedule.transition_length(step, steps_per_epoch, train_config)`: the progressive length (stitchjax.train.schedule).
 - `train(config, workdir, ...)`: `resume.restore_or_init` (resume from the newest good checkpoint, start from
   another run with `init_from`, or pretrain the phase network and initialise), `run_loop` (progress bar, metrics JSON lines, periodic checkpoints, NaN
@@ -47,7 +48,8 @@ from stitchjax.train import resume, schedule
 from stitchjax import config as config_lib
 from stitchjax import parallel, specs
 from stitchjax.data import features, phase
-from stitchjax.model import losses, networks
+from stitchjax.accel import fast_rollout
+from stitchjax.model import networks, objective
 from stitchjax.eval import plots
 from stitchjax.train import reporting
 from stitchjax.data import windows as windows_lib
@@ -174,67 +176,101 @@ def make_update_step(config, mesh: Mesh | None = None,
 
     batch: dict of (B, T, ...) arrays (batch axis sharded over the mesh). ONE rollout per generator
     (inside `generator_loss`, whose third output, when present, is handed to `discriminator_loss`). Both
-    losses take the step's `specs.TrainSpec`, resolved here once from `config`.
+    losses take the step's `specs.TrainSpec`, resolved here once from `config`. The default generator loss
+    also takes the KL warm-up factor and the training step's rollout, the one place that chooses the fast
+    paths of `config.train` (`accel.fast_rollout.training_rollout_batch`).
     The state is donated: do not use the old state after the call.
     """
-    takes_kl_scale = generator_loss is None  # the default loss takes the KL warm-up factor
-    generator_loss = generator_loss or losses.generator_loss
-    discriminator_loss = discriminator_loss or losses.discriminator_loss
+    loss_options = _loss_options(config) if generator_loss is None else (lambda step: {})
+    generator_loss = generator_loss or objective.generator_loss
+    discriminator_loss = discriminator_loss or objective.discriminator_loss
     mesh = parallel.make_mesh() if mesh is None else mesh
     optimizer = make_optimizer(config.train)
     spec = specs.train_spec(config)
-    tc, kl_warmup_steps = config.train, config.loss.kl_warmup_steps  # the update reads no other setting
+    tc = config.train  # the update reads no other setting (but _loss_options' KL warm-up)
 
     def update(state: TrainState, batch: dict, length: jax.Array):
         key = jax.random.fold_in(state.key, state.step)
         _, gen_key, disc_key = jax.random.split(key, 3)
         generators, discriminators = split_params(state.params)
-
-        extra = {}
-        if takes_kl_scale:
-            extra["kl_scale"] = losses.kl_warmup(state.step, kl_warmup_steps)
-
-        def gen_objective(gen_params):
-            out = generator_loss({**gen_params, **discriminators}, state.phase_params, batch, gen_key,
-                                 spec, length, **extra)
-            loss, terms = out[0], out[1]
-            aux = out[2] if len(out) > 2 else None
-            return loss, (terms, aux)
-
-        (gen_loss, (gen_terms, aux)), gen_grads = jax.value_and_grad(gen_objective, has_aux=True)(generators)
-
-        def disc_objective(disc_params):
-            params = {**jax.lax.stop_gradient(generators), **disc_params}
-            extra = () if aux is None else (jax.lax.stop_gradient(aux),)
-            out = discriminator_loss(params, state.phase_params, batch, disc_key, spec, length, *extra)
-            return out[0], out[1]
-
-        (disc_loss, disc_terms), disc_grads = jax.value_and_grad(disc_objective, has_aux=True)(discriminators)
-
-        gen_updates, gen_opt_state = optimizer.update(gen_grads, state.gen_opt_state, generators)
-        disc_updates, disc_opt_state = optimizer.update(disc_grads, state.disc_opt_state, discriminators)
-        if tc.lr_decay_to != 1.0:  # AdamW's update is linear in the learning rate: scale it
-            lr_factor = schedule.learning_rate_factor(state.step, tc)
-            gen_updates = jax.tree.map(lambda u: u * lr_factor, gen_updates)
-            disc_updates = jax.tree.map(lambda u: u * lr_factor, disc_updates)
-        new_params = {**optax.apply_updates(generators, gen_updates),
-                      **optax.apply_updates(discriminators, disc_updates)}
-        metrics = {"loss": gen_loss, "disc_loss": disc_loss}
-        metrics.update({name: value for name, value in gen_terms.items() if name not in metrics})
-        metrics.update({(name if name not in metrics else f"disc_{name}"): value
-                        for name, value in disc_terms.items()})
-        metrics["gen_grad_norm"] = optax.tree.norm(gen_grads)
-        metrics["disc_grad_norm"] = optax.tree.norm(disc_grads)
-        metrics = {name: jnp.asarray(value, jnp.float32) for name, value in metrics.items()}
-        metrics["length"] = jnp.asarray(length, jnp.int32)
-        if tc.lr_decay_to != 1.0:
-            metrics["lr"] = tc.learning_rate * lr_factor
-        new_state = state.replace(step=state.step + 1, params=new_params, gen_opt_state=gen_opt_state,
-                                  disc_opt_state=disc_opt_state)
-        return new_state, metrics
+        extra = loss_options(state.step)
+        (gen_loss, (gen_terms, aux)), gen_grads = _generator_gradients(
+            generator_loss, generators, discriminators, state.phase_params, batch, gen_key, spec, length, extra)
+        (disc_loss, disc_terms), disc_grads = _discriminator_gradients(
+            discriminator_loss, generators, discriminators, state.phase_params, batch, disc_key, spec, length, aux)
+        new_state, lr_factor = _apply_gradients(optimizer, tc, state, gen_grads, disc_grads)
+        loss_values = {"loss": gen_loss, "disc_loss": disc_loss, "gen_terms": gen_terms, "disc_terms": disc_terms}
+        return new_state, _step_metrics(loss_values, gen_grads, disc_grads, length, tc, lr_factor)
 
     rep = parallel.replicated(mesh)
     return jax.jit(update, donate_argnums=(0,), out_shardings=(rep, rep))
+
+
+def _loss_options(config) -> Callable:
+    """`step -> options` of the default generator loss: the KL warm-up factor at that step and the training
+    step's rollout (`accel.fast_rollout`: same values as `batch.rollout_batch`, faster gradients)."""
+    rollout_batch = fast_rollout.training_rollout_batch(config.train)
+    kl_warmup_steps = config.loss.kl_warmup_steps
+    return lambda step: {"kl_scale": objective.kl_warmup(step, kl_warmup_steps), "rollout_batch": rollout_batch}
+
+
+def _generator_gradients(generator_loss, generators, discriminators, phase_params, batch, key, spec, length,
+                         extra: dict):
+    """((loss, (terms, aux)), gradients) of `generator_loss` in the generators; aux: its third output, or None."""
+    def gen_objective(gen_params):
+        out = generator_loss({**gen_params, **discriminators}, phase_params, batch, key, spec, length, **extra)
+        loss, terms = out[0], out[1]
+        aux = out[2] if len(out) > 2 else None
+        return loss, (terms, aux)
+
+    return jax.value_and_grad(gen_objective, has_aux=True)(generators)
+
+
+def _discriminator_gradients(discriminator_loss, generators, discriminators, phase_params, batch, key, spec,
+                             length, aux):
+    """((loss, terms), gradients) of `discriminator_loss` in the discriminators, given the generator loss's
+    aux (stop-gradient) when it has one."""
+    def disc_objective(disc_params):
+        params = {**jax.lax.stop_gradient(generators), **disc_params}
+        extra = () if aux is None else (jax.lax.stop_gradient(aux),)
+        out = discriminator_loss(params, phase_params, batch, key, spec, length, *extra)
+        return out[0], out[1]
+
+    return jax.value_and_grad(disc_objective, has_aux=True)(discriminators)
+
+
+def _apply_gradients(optimizer, tc, state: TrainState, gen_grads: dict, disc_grads: dict):
+    """(the state after one AdamW step of the generators and one of the discriminators, the learning-rate
+    factor of `train.lr_decay_to` or None when the rate is constant)."""
+    generators, discriminators = split_params(state.params)
+    gen_updates, gen_opt_state = optimizer.update(gen_grads, state.gen_opt_state, generators)
+    disc_updates, disc_opt_state = optimizer.update(disc_grads, state.disc_opt_state, discriminators)
+    lr_factor = None
+    if tc.lr_decay_to != 1.0:  # AdamW's update is linear in the learning rate: scale it
+        lr_factor = schedule.learning_rate_factor(state.step, tc)
+        gen_updates = jax.tree.map(lambda u: u * lr_factor, gen_updates)
+        disc_updates = jax.tree.map(lambda u: u * lr_factor, disc_updates)
+    new_params = {**optax.apply_updates(generators, gen_updates),
+                  **optax.apply_updates(discriminators, disc_updates)}
+    new_state = state.replace(step=state.step + 1, params=new_params, gen_opt_state=gen_opt_state,
+                              disc_opt_state=disc_opt_state)
+    return new_state, lr_factor
+
+
+def _step_metrics(loss_values: dict, gen_grads: dict, disc_grads: dict, length, tc, lr_factor) -> dict:
+    """The update's metrics: "loss", "disc_loss", every term of both losses (a discriminator term named like a
+    generator one gets "disc_"), the gradient norms, "length" and, with a decaying rate, "lr"."""
+    metrics = {"loss": loss_values["loss"], "disc_loss": loss_values["disc_loss"]}
+    metrics.update({name: value for name, value in loss_values["gen_terms"].items() if name not in metrics})
+    metrics.update({(name if name not in metrics else f"disc_{name}"): value
+                    for name, value in loss_values["disc_terms"].items()})
+    metrics["gen_grad_norm"] = optax.tree.norm(gen_grads)
+    metrics["disc_grad_norm"] = optax.tree.norm(disc_grads)
+    metrics = {name: jnp.asarray(value, jnp.float32) for name, value in metrics.items()}
+    metrics["length"] = jnp.asarray(length, jnp.int32)
+    if lr_factor is not None:
+        metrics["lr"] = tc.learning_rate * lr_factor
+    return metrics
 
 
 def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,

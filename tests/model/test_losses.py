@@ -10,6 +10,7 @@ from stitchjax import config as C
 from stitchjax.data import datasets
 from stitchjax.data import features as F
 from stitchjax.model import losses as LS
+from stitchjax.model import objective as OB
 from stitchjax.model import networks as N
 from stitchjax import skeleton as S
 from stitchjax import specs as SP
@@ -87,13 +88,13 @@ def _train_step(config):
         discs = {k: params[k] for k in ("disc_short", "disc_long")}
 
         def gen_objective(g):
-            total, terms, generated = LS.generator_loss({**g, **discs}, phase_params, batch, key, SP.train_spec(config), length)
+            total, terms, generated = OB.generator_loss({**g, **discs}, phase_params, batch, key, SP.train_spec(config), length)
             return total, (terms, generated)
 
         (g_total, (terms, generated)), g_grads = jax.value_and_grad(gen_objective, has_aux=True)(gens)
 
         def disc_objective(d):
-            return LS.discriminator_loss({**gens, **d}, phase_params, batch, key, SP.train_spec(config), length, generated)
+            return OB.discriminator_loss({**gens, **d}, phase_params, batch, key, SP.train_spec(config), length, generated)
 
         (d_total, d_terms), d_grads = jax.value_and_grad(disc_objective, has_aux=True)(discs)
         return g_total, terms, g_grads, d_total, d_terms, d_grads
@@ -206,17 +207,17 @@ def test_foot_skate_on_height_contacts_refuses_windows_whose_up_axis_points_down
     upside_down = dataclasses.replace(datasets.get(config.data.dataset), up_axis="-y")
     monkeypatch.setattr(datasets, "get", lambda name: upside_down)
     with pytest.raises(ValueError, match="positive up axis"):
-        LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), SP.train_spec(config), jnp.int32(8))
+        OB.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), SP.train_spec(config), jnp.int32(8))
 
 
 @pytest.mark.parametrize("contacts", ["truth", "height", "height_either"])
 def test_foot_skate_weight_adds_its_term_to_the_generator_objective(setup, contacts):
     config, params, phase_params, batch = setup
     config = C.apply_overrides(config, ["loss.foot_skate_weight=2.0", f"loss.foot_skate_contacts={contacts}"])
-    total, terms, _ = LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), SP.train_spec(config), jnp.int32(8))
+    total, terms, _ = OB.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), SP.train_spec(config), jnp.int32(8))
     lc = config.loss
     assert float(terms["foot_skate"]) > 0  # a random rollout: some feet in contact move
-    base, base_terms, _ = LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1),
+    base, base_terms, _ = OB.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1),
                                             SP.train_spec(C.apply_overrides(config, ["loss.foot_skate_weight=0"])),
                                             jnp.int32(8))
     assert "foot_skate" not in base_terms
@@ -238,9 +239,9 @@ def test_foot_velocity_loss_counts_feet_that_move_unlike_the_ground_truth_in_the
 def test_foot_velocity_weight_adds_its_term_to_the_generator_objective(setup):
     config, params, phase_params, batch = setup
     config = C.apply_overrides(config, ["loss.foot_velocity_weight=2.0"])
-    total, terms, _ = LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), SP.train_spec(config), jnp.int32(8))
+    total, terms, _ = OB.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), SP.train_spec(config), jnp.int32(8))
     assert float(terms["foot_velocity"]) > 0  # a random rollout does not move its feet as the ground truth does
-    base, base_terms, _ = LS.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1),
+    base, base_terms, _ = OB.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1),
                                             SP.train_spec(C.apply_overrides(config, ["loss.foot_velocity_weight=0"])),
                                             jnp.int32(8))
     assert "foot_velocity" not in base_terms
@@ -282,8 +283,8 @@ def test_with_every_extension_off_the_objective_is_eq9_term_for_term(setup, post
             lc.gen_weight) == ((1.0, 1.0, 0.1), 1.0, 0.5, 0.5, 0.1)
     length = 7
     spec = SP.train_spec(config)
-    out, sampled = LS.generator_rollouts(params, phase_params, batch, jax.random.PRNGKey(3), spec, jnp.int32(length))
-    total, terms, _ = LS.generator_objective(params, out, sampled, batch, jnp.int32(length), spec.loss,
+    out, sampled = OB.generator_rollouts(params, phase_params, batch, jax.random.PRNGKey(3), spec, jnp.int32(length))
+    total, terms, _ = OB.generator_objective(params, out, sampled, batch, jnp.int32(length), spec.loss,
                                              spec.skeleton)
     assert sampled is out and not {"foot_skate", "foot_velocity"} & set(terms)
 

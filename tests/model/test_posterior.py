@@ -11,11 +11,13 @@ from stitchjax import config as C
 from stitchjax import parallel
 from stitchjax.data import datasets
 from stitchjax.eval import evaluate, metrics
-from stitchjax.model import losses
+from stitchjax.model import losses, objective
 from stitchjax.train import loop as train
 from stitchjax.sample import trained_model
 from stitchjax.data import features as F
 from stitchjax.model import networks as N
+from stitchjax.model import batch as BT
+from stitchjax.model import noise as NZ
 from stitchjax.model import rollout as RO
 from stitchjax import specs
 
@@ -25,8 +27,8 @@ LENGTH = 8
 
 
 def _generator_loss(params, phase_params, batch, key, config, length):
-    """``losses.generator_loss`` with the train step's specs of `config`."""
-    return losses.generator_loss(params, phase_params, batch, key, specs.train_spec(config), length)
+    """``objective.generator_loss`` with the train step's specs of `config`."""
+    return objective.generator_loss(params, phase_params, batch, key, specs.train_spec(config), length)
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +62,7 @@ def test_training_rollout_reads_the_ground_truth_and_inference_does_not(setup):
     key = jax.random.PRNGKey(1)
 
     def run(b, posterior):
-        return RO.rollout_batch(params, phase_params, b, key, RO.rollout_spec(config), LENGTH, posterior=posterior)
+        return BT.rollout_batch(params, phase_params, b, key, RO.rollout_spec(config), LENGTH, posterior=posterior)
 
     # training (posterior): the in-between ground truth decides z, so the motion changes with it
     assert float(jnp.abs(run(batch, True)["rotations"] - run(other, True)["rotations"]).max()) > 1e-4
@@ -138,8 +140,8 @@ def test_gaussian_kl_free_bits_and_warmup():
     out = {"mu_posterior": mu_q, "logvar_posterior": lv_q, "mu_blend": mu_p, "logvar_blend": lv_p}
     raw, penalised = losses.posterior_kl_loss(out, jnp.array([True]), free_bits=10.0)
     assert float(raw) == pytest.approx(expected, rel=1e-5) and float(penalised) == pytest.approx(10.0)
-    assert [float(losses.kl_warmup(s, 100)) for s in (0, 50, 100, 500)] == [0.0, 0.5, 1.0, 1.0]
-    assert float(losses.kl_warmup(0, 0)) == 1.0
+    assert [float(objective.kl_warmup(s, 100)) for s in (0, 50, 100, 500)] == [0.0, 0.5, 1.0, 1.0]
+    assert float(objective.kl_warmup(0, 0)) == 1.0
 
 
 def test_interpolation_weight_runs_from_zero_to_one_in_each_direction():
@@ -198,11 +200,11 @@ def test_prior_sample_fraction_rolls_windows_out_from_the_prior(setup):
     config, params, phase_params, batch = setup
     key = jax.random.PRNGKey(3)
     mixed_config = C.apply_overrides(config, ["loss.prior_sample_fraction=0.5"])
-    flags = np.asarray(RO.prior_sample_flags(key, batch["rotations"].shape[0], 0.5))
+    flags = np.asarray(BT.prior_sample_flags(key, batch["rotations"].shape[0], 0.5))
     assert flags.any() and not flags.all(), "the test batch must hold both kinds of window"
-    mixed = RO.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(mixed_config), LENGTH)
-    posterior = RO.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(config), LENGTH)
-    prior = RO.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(config), LENGTH, posterior=False)
+    mixed = BT.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(mixed_config), LENGTH)
+    posterior = BT.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(config), LENGTH)
+    prior = BT.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(config), LENGTH, posterior=False)
     np.testing.assert_array_equal(mixed["rotations"][flags], prior["rotations"][flags])
     np.testing.assert_array_equal(mixed["rotations"][~flags], posterior["rotations"][~flags])
     assert float(jnp.abs(prior["rotations"] - posterior["rotations"]).max()) > 1e-4
@@ -223,9 +225,9 @@ def test_prior_sample_fraction_trains_and_keeps_the_paper_path_at_zero(setup):
     post = grads["forward"]["params"]["posterior"]
     assert max(float(jnp.abs(x).max()) for x in jax.tree.leaves(post)) > 0
     with pytest.raises(ValueError, match="prior_sample_fraction"):
-        RO.prior_sample_flags(key, 4, 1.5)
+        BT.prior_sample_flags(key, 4, 1.5)
     with pytest.raises(ValueError, match="prior_sample_fraction"):  # a negative fraction is refused, not ignored
-        RO.rollout_batch(params, phase_params, batch, key,
+        BT.rollout_batch(params, phase_params, batch, key,
                          RO.rollout_spec(C.apply_overrides(config, ["loss.prior_sample_fraction=-0.1"])), LENGTH)
 
 
@@ -236,9 +238,9 @@ def test_prior_sample_reconstruction_weight_only_reweighs_the_prior_windows_stat
     key = jax.random.PRNGKey(1)
     mixed = C.apply_overrides(config, ["loss.prior_sample_fraction=0.5"])
     posterior_key = jax.random.split(key)[0]  # the key generator_rollouts gives the rollout
-    flags = np.asarray(RO.prior_sample_flags(posterior_key, batch["rotations"].shape[0], 0.5))
+    flags = np.asarray(BT.prior_sample_flags(posterior_key, batch["rotations"].shape[0], 0.5))
     assert flags.any() and not flags.all(), "the test batch must hold both kinds of window"
-    out = RO.rollout_batch(params, phase_params, batch, posterior_key, RO.rollout_spec(mixed), LENGTH)
+    out = BT.rollout_batch(params, phase_params, batch, posterior_key, RO.rollout_spec(mixed), LENGTH)
     np.testing.assert_array_equal(np.asarray(out["prior_sampled"]), flags)
 
     changed = _changed_in_between(batch)  # the prior windows' in-between ground truth replaced by noise
@@ -291,7 +293,7 @@ def test_near_keyframe_weight_reweighs_only_the_frames_next_to_the_keyframes(set
     assert float(terms(["loss.near_keyframe_weight=1", "loss.near_keyframe_frames=3"], batch)["state"]) == \
         float(default["state"])
     assert abs(float(terms(["loss.near_keyframe_weight=8"], batch)["fk"]) - float(default["fk"])) > 1e-4
-    np.testing.assert_array_equal(losses.near_keyframe_weights(5, 4.0, 2), [4, 4, 1, 1, 1])
+    np.testing.assert_array_equal(objective.near_keyframe_weights(5, 4.0, 2), [4, 4, 1, 1, 1])
     with pytest.raises(ValueError, match="near_keyframe_weight"):
         terms(["loss.near_keyframe_weight=-1"], batch)
     with pytest.raises(ValueError, match="near_keyframe_frames"):  # a weight on no frame is refused, not ignored
@@ -301,7 +303,7 @@ def test_near_keyframe_weight_reweighs_only_the_frames_next_to_the_keyframes(set
 @pytest.mark.parametrize("rho", [0.5, 0.9])
 def test_correlated_noise_keeps_unit_variance_and_has_the_asked_correlation(rho):
     eps = jax.random.normal(jax.random.PRNGKey(0), (12, 40000))
-    e = np.asarray(RO.correlated_noise(eps, rho))
+    e = np.asarray(NZ.correlated_noise(eps, rho))
     np.testing.assert_allclose(e.std(axis=1), 1.0, atol=0.02)
     lag1 = np.mean(e[1:] * e[:-1], axis=1)
     np.testing.assert_allclose(lag1, rho, atol=0.02)
@@ -310,20 +312,20 @@ def test_correlated_noise_keeps_unit_variance_and_has_the_asked_correlation(rho)
 
 def test_correlated_noise_ends():
     eps = jax.random.normal(jax.random.PRNGKey(1), (6, 2, 3))
-    assert RO.correlated_noise(eps, 0.0) is eps  # the paper's independent noise, untouched
-    one = np.asarray(RO.correlated_noise(eps, 1.0))
+    assert NZ.correlated_noise(eps, 0.0) is eps  # the paper's independent noise, untouched
+    one = np.asarray(NZ.correlated_noise(eps, 1.0))
     np.testing.assert_allclose(one, np.broadcast_to(np.asarray(eps)[:1], one.shape), rtol=1e-6)
     with pytest.raises(ValueError, match="noise_correlation"):
-        RO.correlated_noise(eps, 1.2)
+        NZ.correlated_noise(eps, 1.2)
 
 
 def test_noise_ramp_factors():
-    np.testing.assert_array_equal(RO.noise_ramp(5, 0), np.ones(5))  # the paper's sampling: no ramp
-    np.testing.assert_allclose(RO.noise_ramp(6, 4), [0.0, 0.25, 0.5, 0.75, 1.0, 1.0])
+    np.testing.assert_array_equal(NZ.noise_ramp(5, 0), np.ones(5))  # the paper's sampling: no ramp
+    np.testing.assert_allclose(NZ.noise_ramp(6, 4), [0.0, 0.25, 0.5, 0.75, 1.0, 1.0])
     with pytest.raises(ValueError, match="noise_ramp_steps"):
-        RO.noise_ramp(5, -1)
+        NZ.noise_ramp(5, -1)
     with pytest.raises(ValueError, match="noise_ramp_steps"):
-        RO.noise_ramp(5, 2.5)
+        NZ.noise_ramp(5, 2.5)
 
 
 def test_noise_ramp_puts_the_frames_next_to_the_keyframes_on_the_mean_path():
@@ -331,7 +333,7 @@ def test_noise_ramp_puts_the_frames_next_to_the_keyframes_on_the_mean_path():
     params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     batch = synthetic_batch()
     length = 10
-    start, target, offsets = jax.tree.map(lambda x: x[0], RO.keyframes_from_batch(batch, length))
+    start, target, offsets = jax.tree.map(lambda x: x[0], BT.keyframes_from_batch(batch, length))
 
     spec = RO.rollout_spec(config)
 
@@ -366,7 +368,7 @@ def test_prior_best_of_scores_only_the_copy_closest_to_the_ground_truth(setup):
     key = jax.random.PRNGKey(1)
     size = batch["rotations"].shape[0]
     best3 = C.apply_overrides(config, ["loss.prior_sample_fraction=0.5", "loss.prior_best_of=3"])
-    copies, flags, num_prior = losses.prior_copies(batch, specs.loss_spec(best3))
+    copies, flags, num_prior = objective.prior_copies(batch, specs.loss_spec(best3))
     assert num_prior == round(0.5 * size) and copies["rotations"].shape[0] == size + 2 * num_prior
     np.testing.assert_array_equal(np.asarray(flags), np.arange(size + 2 * num_prior) >= size - num_prior)
     for block in (1, 2):  # the repeated blocks are the batch's last num_prior windows
@@ -374,9 +376,9 @@ def test_prior_best_of_scores_only_the_copy_closest_to_the_ground_truth(setup):
         np.testing.assert_array_equal(copies["global_positions"][rows], batch["global_positions"][-num_prior:])
 
     errors = jnp.asarray([9.0, 5.0, 1.0, 2.0, 0.5, 3.0, 3.0, 0.1])  # 2 posterior rows, then K = 3 blocks of 2
-    np.testing.assert_array_equal(losses.best_of_weights(errors, 2, 3), [1, 1, 0, 0, 1, 0, 0, 1])
+    np.testing.assert_array_equal(objective.best_of_weights(errors, 2, 3), [1, 1, 0, 0, 1, 0, 0, 1])
     positions = jnp.zeros((2, 3, 4, 3)).at[1, :, :, 0].set(3.0)
-    np.testing.assert_allclose(losses.window_position_errors(positions, jnp.zeros_like(positions),
+    np.testing.assert_allclose(objective.window_position_errors(positions, jnp.zeros_like(positions),
                                                              jnp.ones((2, 3), bool)), [0.0, 3.0])
 
     total, terms, generated = _generator_loss(params, phase_params, batch, key, best3, LENGTH)
@@ -394,7 +396,7 @@ def test_prior_best_of_scores_only_the_copy_closest_to_the_ground_truth(setup):
     with pytest.raises(ValueError, match="prior_best_of"):  # no prior window to repeat: refused, not ignored
         _generator_loss(params, phase_params, batch, key, C.apply_overrides(config, ["loss.prior_best_of=2"]), LENGTH)
     with pytest.raises(ValueError, match="prior_best_of"):
-        losses.prior_copies(batch, specs.loss_spec(C.apply_overrides(config, ["loss.prior_best_of=0"])))
+        objective.prior_copies(batch, specs.loss_spec(C.apply_overrides(config, ["loss.prior_best_of=0"])))
 
 
 def test_model_noise_correlation_is_the_rollouts_default_at_training_and_inference(setup):
@@ -402,7 +404,7 @@ def test_model_noise_correlation_is_the_rollouts_default_at_training_and_inferen
     samplers), an explicit one overrides it, and 0 keeps the paper's independent noise."""
     config, params, phase_params, batch = setup
     correlated = C.apply_overrides(config, ["model.noise_correlation=0.9"])
-    start, target, offsets = jax.tree.map(lambda x: x[0], RO.keyframes_from_batch(batch, LENGTH))
+    start, target, offsets = jax.tree.map(lambda x: x[0], BT.keyframes_from_batch(batch, LENGTH))
     key = jax.random.PRNGKey(2)
 
     def run(cfg, **kw):
@@ -413,8 +415,8 @@ def test_model_noise_correlation_is_the_rollouts_default_at_training_and_inferen
     np.testing.assert_array_equal(run(correlated, noise_correlation=0.0), run(config))
     assert np.abs(run(correlated) - run(config)).max() > 1e-4
     # the training rollout reads it too: the prior windows move as the correlated sampler moves them
-    prior = RO.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(correlated), LENGTH, posterior=False)
-    plain = RO.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(config), LENGTH, posterior=False)
+    prior = BT.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(correlated), LENGTH, posterior=False)
+    plain = BT.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(config), LENGTH, posterior=False)
     assert float(jnp.abs(prior["global_positions"] - plain["global_positions"]).max()) > 1e-4
 
 
@@ -426,7 +428,7 @@ def test_posterior_horizon_shows_the_frame_k_ahead_with_the_roots_mean_velocity(
     _, _, _, batch = setup
     config = tiny_config(f"model.posterior_horizon={ahead}")
     steps, length = 7, LENGTH
-    got = RO.next_frame_states(batch, length, steps, RO.rollout_spec(config))
+    got = BT.next_frame_states(batch, length, steps, RO.rollout_spec(config))
     root, scale = np.asarray(batch["root_positions"]), config.data.velocity_scale
     for name in ("forward", "backward"):
         rows = []
@@ -438,7 +440,7 @@ def test_posterior_horizon_shows_the_frame_k_ahead_with_the_roots_mean_velocity(
             rows.append(state)
         np.testing.assert_allclose(got[name], jnp.stack(rows, axis=1), rtol=1e-6, atol=1e-6, err_msg=name)
     if ahead > 1:  # the frames it shows differ from the next frame's
-        nearest = RO.next_frame_states(batch, length, steps, RO.rollout_spec(tiny_config()))
+        nearest = BT.next_frame_states(batch, length, steps, RO.rollout_spec(tiny_config()))
         assert float(jnp.abs(got["forward"] - nearest["forward"]).max()) > 1e-3
     with pytest.raises(ValueError, match="posterior_horizon"):
-        RO.next_frame_states(batch, length, steps, RO.rollout_spec(tiny_config("model.posterior_horizon=0")))
+        BT.next_frame_states(batch, length, steps, RO.rollout_spec(tiny_config("model.posterior_horizon=0")))

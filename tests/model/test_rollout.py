@@ -6,6 +6,8 @@ import pytest
 
 from stitchjax import config as C
 from stitchjax.data import features as F
+from stitchjax.accel import fast_rollout
+from stitchjax.model import batch as BT
 from stitchjax.model import networks as N
 from stitchjax.model import rollout as RO
 from stitchjax import skeleton as S
@@ -44,7 +46,7 @@ def setup():
     phase_params = phase_params_for(config)
     # z from the prior, as at inference (the posterior path is tested in test_posterior.py)
     spec = RO.rollout_spec(config)
-    fn = jax.jit(lambda p, pp, b, k, length: RO.rollout_batch(p, pp, b, k, spec, length, posterior=False))
+    fn = jax.jit(lambda p, pp, b, k, length: BT.rollout_batch(p, pp, b, k, spec, length, posterior=False))
     return config, params, phase_params, synthetic_batch(), fn
 
 
@@ -108,7 +110,7 @@ def test_each_ablation_runs_and_changes_the_output(setup, switch):
     length = jnp.int32(8)
     full = fn(params if "phase" not in switch else N.init_params(N.model_spec(config), jax.random.PRNGKey(0)),
               phase_params, batch, jax.random.PRNGKey(1), length)
-    out = jax.jit(lambda p, pp, b, k, n: RO.rollout_batch(p, pp, b, k, RO.rollout_spec(ablated), n))(
+    out = jax.jit(lambda p, pp, b, k, n: BT.rollout_batch(p, pp, b, k, RO.rollout_spec(ablated), n))(
         params, phase_params, batch, jax.random.PRNGKey(1), length)
     np.testing.assert_array_equal(out["rotations"][:, 9], batch["rotations"][:, 9])
     np.testing.assert_array_equal(out["rotations"][:, 0], batch["rotations"][:, 0])
@@ -133,7 +135,7 @@ def test_keyframe_velocity_is_the_transitions_mean_and_reversed_for_the_target(s
     zero_first, zero_last = RO.keyframe_states(RO.rollout_spec(config), start, target, jnp.int32(8))
     assert not np.any(np.asarray(zero_first["velocity"])) and not np.any(np.asarray(zero_last["velocity"]))
     key, length = jax.random.PRNGKey(1), jnp.int32(8)
-    fed = jax.jit(lambda p, pp, b, k, n: RO.rollout_batch(p, pp, b, k, RO.rollout_spec(mean), n, posterior=False))(
+    fed = jax.jit(lambda p, pp, b, k, n: BT.rollout_batch(p, pp, b, k, RO.rollout_spec(mean), n, posterior=False))(
         params, phase_params, batch, key, length)
     paper = fn(params, phase_params, batch, key, length)
     np.testing.assert_array_equal(fed["rotations"][:, 9], batch["rotations"][:, 9])  # keyframes stay exact
@@ -152,14 +154,15 @@ def test_phase_network_modulates_the_decoder(setup):
 def test_weight_gradients_after_scan_equal_per_step_gradients(setup, extra):
     _, params, phase_params, batch, _ = setup
     from stitchjax import specs
-    from stitchjax.model import losses
+    from stitchjax.model import objective
 
     def gradients(flag):
         config = tiny_config(f"train.weight_gradients_after_scan={flag}", *extra)
-        spec = specs.train_spec(config)
+        spec, rollout_batch = specs.train_spec(config), fast_rollout.training_rollout_batch(config.train)
 
         def loss(gen, pp, b):
-            return losses.generator_loss({**params, **gen}, pp, b, jax.random.PRNGKey(3), spec, 7)[0]
+            return objective.generator_loss({**params, **gen}, pp, b, jax.random.PRNGKey(3), spec, 7,
+                                            rollout_batch=rollout_batch)[0]
 
         generators = {k: params[k] for k in ("forward", "backward")}
         return jax.jit(jax.value_and_grad(loss, argnums=(0, 1, 2)))(generators, phase_params, batch)
@@ -183,18 +186,19 @@ def test_taped_scan_gives_the_gradients_of_plain_autodiff(extra):
     """train.scan_remat=taped (record, then replay the tape) changes what the scan stacks, never the loss or
     any gradient (parameters, phase network, batch), against autodiff without after-scan kernel gradients."""
     from stitchjax import specs
-    from stitchjax.model import losses
+    from stitchjax.model import objective
 
     batch = synthetic_batch()
 
     def gradients(*flags):
         config = tiny_config(*extra, *flags)
-        spec = specs.train_spec(config)
+        spec, rollout_batch = specs.train_spec(config), fast_rollout.training_rollout_batch(config.train)
         params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
         generators = {k: params[k] for k in ("forward", "backward")}
 
         def loss(gen, pp, b):
-            return losses.generator_loss({**params, **gen}, pp, b, jax.random.PRNGKey(3), spec, 7)[0]
+            return objective.generator_loss({**params, **gen}, pp, b, jax.random.PRNGKey(3), spec, 7,
+                                            rollout_batch=rollout_batch)[0]
 
         return jax.jit(jax.value_and_grad(loss, argnums=(0, 1, 2)))(generators, phase_params_for(config), batch)
 
@@ -212,8 +216,8 @@ def test_taped_scan_refuses_an_activation_it_cannot_tape():
     config = tiny_config("train.scan_remat=taped", "model.activation=gelu")
     params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     with pytest.raises(ValueError, match="scan_remat=taped cannot tape model.activation='gelu'"):
-        RO.rollout_batch(params, phase_params_for(config), synthetic_batch(), jax.random.PRNGKey(1),
-                         RO.rollout_spec(config), 7)
+        fast_rollout.training_rollout_batch(config.train)(params, phase_params_for(config), synthetic_batch(),
+                                                          jax.random.PRNGKey(1), RO.rollout_spec(config), 7)
 
 
 def test_recorded_values_are_stacked_once():
@@ -222,7 +226,7 @@ def test_recorded_values_are_stacked_once():
     config = tiny_config()
     params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     batch = synthetic_batch()
-    start, target, offsets = RO.keyframes_from_batch(batch, 7)
+    start, target, offsets = BT.keyframes_from_batch(batch, 7)
     one = jax.tree.map(lambda x: x[0], (start, target, offsets))
     from stitchjax.accel import probes
 
@@ -243,16 +247,17 @@ def test_scan_remat_keeps_the_loss_and_gradients(setup, policy):
     """train.scan_remat changes only what the scan saves for the backward pass, never the gradients."""
     _, params, phase_params, batch, _ = setup
     from stitchjax import specs
-    from stitchjax.model import losses
+    from stitchjax.model import objective
 
-    assert set(RO.SCAN_REMAT) == set(C.CHOICES[("train", "scan_remat")])
+    assert set(fast_rollout.SCAN_REMAT) == set(C.CHOICES[("train", "scan_remat")])
 
     def gradients(remat):
         config = tiny_config(f"train.scan_remat={remat}")
-        spec = specs.train_spec(config)
+        spec, rollout_batch = specs.train_spec(config), fast_rollout.training_rollout_batch(config.train)
 
         def loss(gen, b):
-            return losses.generator_loss({**params, **gen}, phase_params, b, jax.random.PRNGKey(3), spec, 7)[0]
+            return objective.generator_loss({**params, **gen}, phase_params, b, jax.random.PRNGKey(3), spec, 7,
+                                            rollout_batch=rollout_batch)[0]
 
         generators = {k: params[k] for k in ("forward", "backward")}
         return jax.jit(jax.value_and_grad(loss, argnums=(0, 1)))(generators, batch)

@@ -1,0 +1,359 @@
+"""The generator and discriminator objectives (paper Eq. 9) over one rollout of a batch, weighing the terms of
+:mod:`stitchjax.model.losses` (weights in ``config.loss``)::
+
+    L = L_state + 1.0 L_kl + 0.5 L_stitch + 0.5 L_fk + 0.1 L_D + 0.1 L_G
+
+Every mechanism beyond Eq. 9 is off by default and named in ``config.EXTENSIONS`` (``config.extensions_on``
+says which a config turns on). Optional, not in the paper: ``loss.foot_skate_weight`` x ``losses.foot_skate_loss``
+and ``loss.foot_velocity_weight`` x ``losses.foot_velocity_loss``; ``loss.prior_best_of`` rolls the prior windows
+out several times and scores only the copy nearest the ground truth in the state and FK terms
+(:func:`prior_copies`, :func:`best_of_weights`).
+
+L_kl: with ``model.posterior="next_frame"`` KL(q || p) of the posterior against the latent-interpolation
+prior (``loss.free_bits``, warm-up ``loss.kl_warmup_steps``, optional ``loss.prior_kl_weight`` KL(p || N(0, I)));
+with "none" the paper's KL(p || N(0, I)).
+
+L_state, L_kl and L_fk are averaged over the forward and backward generators. The generator update
+minimises ``generator_loss`` (everything but L_D); the discriminator update minimises
+``discriminator_loss`` = 0.1 L_D. One train step does ONE rollout (``generator_rollouts``), which
+``generator_objective`` scores; it returns the (stop-gradient) discriminator features of the generated
+motion as its third output, which ``discriminator_loss`` takes as its ``generated`` argument. The
+objective reads frozen specs built once where the train step is made (``stitchjax.specs``): a
+``TrainSpec`` holds the rollout's ``RolloutSpec`` (the model), the ``LossSpec`` (``config.loss`` and the model
+switches that decide which terms exist) and the ``SkeletonSpec`` (feet, up axis, scales of the dataset).
+The rollout is ``batch.rollout_batch`` unless the caller passes another with the same signature and values
+(``rollout_batch``: the training step passes its own).
+"""
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from stitchjax.model import batch as batch_lib
+from stitchjax.model import networks
+from stitchjax.model.losses import (disc_features, fk_loss, foot_height_contacts, foot_skate_loss,
+                                    foot_velocity_loss, kl_loss, lsgan_discriminator_loss, lsgan_generator_loss,
+                                    masked_mean, posterior_kl_loss, state_loss, stitching_loss)
+
+__all__ = [
+    "generator_loss", "generator_rollouts", "generator_objective", "discriminator_loss", "direction_targets",
+    "kl_warmup", "reconstruction_weights", "near_keyframe_weights", "prior_copies", "window_position_errors",
+    "best_of_weights", "adversarial_generator_terms",
+]
+
+
+def generator_loss(params, phase_params, batch, key, spec, length, kl_scale=1.0,
+                   rollout_batch=batch_lib.rollout_batch):
+    """Generator objective for one batch (paper Eq. 9 without L_D): :func:`generator_rollouts` (the
+    train step's one rollout) scored by :func:`generator_objective`.
+
+    Args:
+      params: {"forward", "backward", "disc_short", "disc_long"}.
+      phase_params: frozen phase network params (or None: zero phase features).
+      batch: dict from ``features.prepare_dataset`` with leading (B, T); T - 2 is the maximum length.
+      key: PRNG key; spec: ``specs.TrainSpec`` (static: ``specs.train_spec(config)``); length: traced int
+      transition length.
+      kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`).
+      rollout_batch: the batch's rollout (``batch.rollout_batch``, or one with its signature and values).
+    Returns:
+      (total, terms, generated): total scalar; terms dict of scalars "state", "kl", "kl_prior", "fk",
+      "stitch", "adv_g", "adv_g_short", "adv_g_long", "rotation", "velocity", "contact" (and per-direction
+      "state_forward", ...; "foot_skate" with ``loss.foot_skate_weight``; "prior_error_mean" and
+      "prior_error_best" with ``loss.prior_best_of`` > 1: the prior copies' mean distance per joint to the
+      ground truth, and that of the copies the state and FK terms score); generated = {"features" (B, T, F)
+      stop-gradient discriminator input of the stitched motion the adversarial terms saw, "mask" (B, T)}
+      for :func:`discriminator_loss`.
+    """
+    batch_size = batch["rotations"].shape[0]
+    batch, prior_flags, num_prior = prior_copies(batch, spec.loss)
+    out, sampled = generator_rollouts(params, phase_params, batch, key, spec, length, prior_flags, rollout_batch)
+    if not num_prior:
+        return generator_objective(params, out, sampled, batch, length, spec.loss, spec.skeleton, kl_scale)
+    positions = out["global_positions"]
+    errors = window_position_errors(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"])
+    selected = best_of_weights(errors, num_prior, spec.loss.loss.prior_best_of)
+    total, terms, generated = generator_objective(params, out, sampled, batch, length, spec.loss, spec.skeleton,
+                                                  kl_scale, selected)
+    prior_errors = jax.lax.stop_gradient(errors[batch_size - num_prior:])
+    chosen = selected[batch_size - num_prior:]
+    terms["prior_error_mean"] = jnp.mean(prior_errors)
+    terms["prior_error_best"] = jnp.sum(prior_errors * chosen) / num_prior
+    generated = {name: value[:batch_size] for name, value in generated.items()}  # the batch's own windows
+    return total, terms, generated
+
+
+def generator_rollouts(params, phase_params, batch, key, spec, length, prior_flags=None,
+                       rollout_batch=batch_lib.rollout_batch) -> tuple[dict, dict]:
+    """The rollouts the generator objective scores: (out, sampled).
+
+    spec: the ``TrainSpec`` (its ``rollout`` spec is the model). out: ``rollout_batch`` (default
+    ``batch.rollout_batch``; the training step passes its own, same values) of the
+    batch, z from the posterior when ``model.posterior`` has one (the state, FK and KL terms); sampled: the
+    motion the stitching and adversarial terms see, ``out`` itself unless ``loss.prior_rollout`` adds a second
+    rollout with z from the prior. prior_flags: (B,) bool, the windows of ``out`` whose z comes from the prior
+    (:func:`prior_copies`); None = drawn at random (``loss.prior_sample_fraction``).
+    """
+    posterior_key, prior_key = jax.random.split(key)
+    out = rollout_batch(params, phase_params, batch, posterior_key, spec.rollout, length, prior_flags=prior_flags)
+    if spec.loss.loss.prior_rollout and spec.loss.posterior != "none":
+        return out, rollout_batch(params, phase_params, batch, prior_key, spec.rollout, length, posterior=False)
+    return out, out
+
+
+def generator_objective(params, out, sampled, batch, length, spec, skeleton, kl_scale=1.0, selected=None):
+    """Generator objective (paper Eq. 9 without L_D) of the rollouts of :func:`generator_rollouts`.
+
+    params: the discriminators' params {"disc_short", "disc_long"} (others ignored); batch: the ground truth;
+    spec: the ``LossSpec`` (weights, posterior, directions, discriminators); skeleton: the ``SkeletonSpec``
+    (scales, feet, up axis); kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`);
+    selected: (B,) weights of the windows in the state and FK terms on top of the reconstruction weights
+    (:func:`best_of_weights`), None = 1.
+    Returns (total, terms, generated) as :func:`generator_loss`.
+    """
+    lc = spec.loss
+    n = out["forward"]["mask"].shape[1]
+    directions = ["forward"] + (["backward"] if spec.bidirectional else [])
+    window_weights = None
+    if lc.prior_sample_reconstruction_weight != 1.0:
+        if spec.posterior == "none" or lc.prior_sample_fraction == 0:  # no window it could weigh
+            raise ValueError("loss.prior_sample_reconstruction_weight weighs the windows that "
+                             "loss.prior_sample_fraction draws from the prior: set loss.prior_sample_fraction > 0 "
+                             "with a posterior, or leave the weight at 1")
+        window_weights = reconstruction_weights(out["prior_sampled"], lc.prior_sample_reconstruction_weight)
+    if selected is not None:
+        window_weights = selected if window_weights is None else window_weights * selected
+    terms = {}
+    for name in directions:
+        target = direction_targets(batch, length, n, name == "backward", skeleton)
+        for term, value in _direction_terms(out[name], target, lc, skeleton, spec.posterior,
+                                            window_weights).items():
+            terms[f"{term}_{name}"] = value
+    for term in ("state", "kl", "kl_penalty", "kl_prior", "fk", "rotation", "velocity", "contact"):
+        terms[term] = sum(terms[f"{term}_{d}"] for d in directions) / len(directions)
+    if sampled is not out:
+        terms["stitch_posterior"] = jax.lax.stop_gradient(_overlap_stitching_loss(out, lc, skeleton))
+    terms["stitch"] = _overlap_stitching_loss(sampled, lc, skeleton)
+    terms.update(adversarial_generator_terms(params, sampled, spec, skeleton))
+    if lc.foot_skate_weight:
+        terms["foot_skate"] = _foot_skate_term(out, batch, lc, skeleton)
+    if lc.foot_velocity_weight:
+        terms["foot_velocity"] = _foot_velocity_term(out, batch, lc, skeleton)
+    kl_weight = lc.kl_weight * kl_scale
+    prior_kl = lc.prior_kl_weight * terms["kl_prior"] if spec.posterior != "none" else 0.0
+    total = (terms["state"] + kl_weight * terms.pop("kl_penalty") + prior_kl + lc.stitch_weight * terms["stitch"]
+             + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"]
+             + lc.foot_skate_weight * terms.get("foot_skate", 0.0)
+             + lc.foot_velocity_weight * terms.get("foot_velocity", 0.0))
+    for name in directions:
+        terms.pop(f"kl_penalty_{name}")
+    fake = disc_features(sampled["global_positions"], sampled["root_positions"], skeleton)
+    generated = {"features": jax.lax.stop_gradient(fake), "mask": sampled["mask"]}
+    return total, terms, generated
+
+
+def discriminator_loss(params, phase_params, batch, key, spec, length, generated=None):
+    """Discriminator objective: ``loss.disc_weight`` * L_D summed over the short and long discriminators.
+
+    spec: ``specs.TrainSpec``. generated: the third output of :func:`generator_loss` (reuses its rollout);
+    None = run a rollout here (``batch.rollout_batch``, under stop_gradient). Returns (total, {"adv_d",
+    "adv_d_short", "adv_d_long", "d_real", "d_fake"}).
+    """
+    skeleton, ls, discriminators = spec.skeleton, spec.loss, spec.loss.discriminators
+    if generated is None:
+        out = batch_lib.rollout_batch(jax.lax.stop_gradient(params), phase_params, batch, key, spec.rollout,
+                                      length)
+        generated = {"features": disc_features(out["global_positions"], out["root_positions"], skeleton),
+                     "mask": out["mask"]}
+    fake = jax.lax.stop_gradient(generated["features"])
+    mask = generated["mask"]
+    real = _real_features(batch, skeleton, fake.shape[1])
+    real_short, real_long = _disc_scores(params, discriminators, real)
+    fake_short, fake_long = _disc_scores(params, discriminators, fake)
+    m_short = _window_mask(mask, discriminators.short_window)
+    m_long = _window_mask(mask, discriminators.long_window)
+    terms = {
+        "adv_d_short": lsgan_discriminator_loss(real_short, fake_short, m_short),
+        "adv_d_long": lsgan_discriminator_loss(real_long, fake_long, m_long),
+        "d_real": 0.5 * (masked_mean(real_short, m_short) + masked_mean(real_long, m_long)),
+        "d_fake": 0.5 * (masked_mean(fake_short, m_short) + masked_mean(fake_long, m_long)),
+    }
+    terms["adv_d"] = terms["adv_d_short"] + terms["adv_d_long"]
+    return ls.loss.disc_weight * terms["adv_d"], terms
+
+
+def _direction_terms(out_dir, target, loss_config, skeleton, posterior: str, window_weights=None):
+    """Per-direction terms: "state" and its parts, "fk", "kl" (the KL that is reported), "kl_penalty" (what
+    the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I))). window_weights: (B,) weights
+    of the state and FK terms (:func:`reconstruction_weights`), None = 1; the frames next to the keyframe are
+    weighted by :func:`near_keyframe_weights`."""
+    lc = loss_config
+    mask = out_dir["mask"]
+    recon_mask = mask if window_weights is None else mask * window_weights[:, None]
+    if lc.near_keyframe_weight != 1.0:
+        recon_mask = recon_mask * near_keyframe_weights(mask.shape[-1], lc.near_keyframe_weight,
+                                                        lc.near_keyframe_frames)
+    state, parts = state_loss(out_dir, target, recon_mask, lc)
+    prior_kl = kl_loss(out_dir["mu_blend"], out_dir["logvar_blend"], mask, lc.reduction)
+    if posterior == "none":
+        kl = penalty = prior_kl  # the paper's term: the sampling distribution against N(0, I)
+    else:
+        kl, penalty = posterior_kl_loss(out_dir, mask, lc.free_bits, lc.reduction)
+    fk = fk_loss(out_dir["global_positions"], target["global_positions"], recon_mask, skeleton.position_scale,
+                 lc.reduction)
+    return {"state": state, "kl": kl, "kl_penalty": penalty, "kl_prior": prior_kl, "fk": fk, **parts}
+
+
+def direction_targets(batch, length, num_steps: int, backward: bool, skeleton):
+    """Ground truth for one direction's per-step outputs (``batch.direction_frames``; `skeleton` gives
+    the velocity scale)."""
+    return batch_lib.direction_frames(batch, length, num_steps, backward, skeleton)
+
+
+def kl_warmup(step, warmup_steps: int):
+    """KL weight factor min(1, step / warmup_steps) (1 when warmup_steps <= 0)."""
+    if warmup_steps <= 0:
+        return jnp.ones((), jnp.float32)
+    return jnp.clip(jnp.asarray(step, jnp.float32) / float(warmup_steps), 0.0, 1.0)
+
+
+def reconstruction_weights(prior_sampled, weight: float):
+    """(B,) weight of each window in the reconstruction terms (state, FK): 1 where z came from the posterior,
+    ``weight`` (``loss.prior_sample_reconstruction_weight``) where ``loss.prior_sample_fraction`` drew it from
+    the prior. prior_sampled: (B,) bool, ``batch.rollout_batch(...)["prior_sampled"]``. The terms stay
+    means over frames, now weighted: sum(w * loss) / sum(w)."""
+    if weight < 0:
+        raise ValueError(f"loss.prior_sample_reconstruction_weight must be >= 0, got {weight}")
+    return jnp.where(prior_sampled, jnp.float32(weight), jnp.float32(1.0))
+
+
+def near_keyframe_weights(num_steps: int, weight: float, frames: int):
+    """(n,) weight of each step of one direction in the reconstruction terms: ``weight``
+    (``loss.near_keyframe_weight``) on the first ``frames`` generated frames, the ones next to the keyframe
+    the direction starts from (the backward direction's first is the transition's last frame, which SLDE
+    scores), 1 on the others. The terms stay weighted means over frames."""
+    if weight < 0 or frames < 1:  # frames 0 would make the weight do nothing
+        raise ValueError(f"loss.near_keyframe_weight must be >= 0 and loss.near_keyframe_frames >= 1, got "
+                         f"{weight}, {frames}")
+    return jnp.where(jnp.arange(num_steps) < frames, jnp.float32(weight), jnp.float32(1.0))
+
+
+def prior_copies(batch, spec):
+    """The windows a train step rolls out with ``loss.prior_best_of`` = K: (batch, prior_flags, num_prior).
+
+    With K > 1 the last num_prior = round(``loss.prior_sample_fraction`` x B) windows of the (shuffled) batch
+    draw z from the prior, and they are repeated K - 1 more times: the rows are the B - num_prior posterior
+    windows, then K blocks of the num_prior prior windows (B + (K - 1) num_prior rows); prior_flags (rows,)
+    bool marks the prior rows. With K = 1: (batch, None, 0), and prior_sample_fraction draws the prior
+    windows at random (``batch.prior_sample_flags``). spec: the ``LossSpec``.
+    """
+    best_of = spec.loss.prior_best_of
+    if best_of < 1:
+        raise ValueError(f"loss.prior_best_of must be >= 1, got {best_of}")
+    if best_of == 1:
+        return batch, None, 0
+    batch_size = batch["rotations"].shape[0]
+    num_prior = int(round(spec.loss.prior_sample_fraction * batch_size))
+    if spec.posterior == "none" or num_prior == 0:
+        raise ValueError(f"loss.prior_best_of={best_of} repeats the windows that loss.prior_sample_fraction draws "
+                         f"from the prior, and this batch of {batch_size} has none: use a posterior and "
+                         "loss.prior_sample_fraction x train.batch_size >= 1, or leave loss.prior_best_of at 1")
+    copies = {name: jnp.concatenate([value] + [value[batch_size - num_prior:]] * (best_of - 1), axis=0)
+              for name, value in batch.items()}
+    flags = jnp.arange(batch_size + (best_of - 1) * num_prior) >= batch_size - num_prior
+    return copies, flags, num_prior
+
+
+def window_position_errors(positions, true_positions, mask):
+    """(B,) mean distance per joint between generated and true global positions (B, T, J, 3) over each
+    window's valid frames (mask (B, T)), in the positions' units."""
+    distance = jnp.mean(jnp.linalg.norm(positions - true_positions, axis=-1), axis=-1)
+    mask = mask.astype(distance.dtype)
+    return jnp.sum(distance * mask, axis=-1) / jnp.maximum(jnp.sum(mask, axis=-1), 1.0)
+
+
+def best_of_weights(errors, num_prior: int, best_of: int):
+    """(rows,) 0 / 1 weight of each row of :func:`prior_copies` in the state and FK terms: 1 on every
+    posterior window and on the copy of each prior window with the lowest error, 0 on its other copies
+    (ties go to the first). errors (rows,): :func:`window_position_errors`, not differentiated."""
+    num_posterior = errors.shape[0] - best_of * num_prior
+    copies = jax.lax.stop_gradient(errors[num_posterior:]).reshape(best_of, num_prior)
+    chosen = jax.nn.one_hot(jnp.argmin(copies, axis=0), best_of, dtype=jnp.float32).T.reshape(-1)
+    return jnp.concatenate([jnp.ones((num_posterior,), jnp.float32), chosen])
+
+
+def adversarial_generator_terms(params, out, spec, skeleton) -> dict:
+    """LSGAN generator terms of a stitched rollout: "adv_g_short", "adv_g_long", "adv_g" (their sum).
+    spec: the ``LossSpec``; skeleton: the ``SkeletonSpec``."""
+    fake = disc_features(out["global_positions"], out["root_positions"], skeleton)
+    if not spec.loss.gen_weight:
+        zero = jnp.zeros((), fake.dtype)
+        return {"adv_g_short": zero, "adv_g_long": zero, "adv_g": zero}
+    mask = out["mask"]
+    discriminators = spec.discriminators
+    short, long = _disc_scores(params, discriminators, fake)
+    terms = {"adv_g_short": lsgan_generator_loss(short, _window_mask(mask, discriminators.short_window)),
+             "adv_g_long": lsgan_generator_loss(long, _window_mask(mask, discriminators.long_window))}
+    terms["adv_g"] = terms["adv_g_short"] + terms["adv_g_long"]
+    return terms
+
+
+def _disc_scores(params, spec, features):
+    """Scores of the short and long discriminators of a ``networks.DiscriminatorSpec``."""
+    short = networks.make_discriminator(spec, "disc_short").apply(params["disc_short"], features)
+    long = networks.make_discriminator(spec, "disc_long").apply(params["disc_long"], features)
+    return short, long
+
+
+def _real_features(batch, skeleton, num_frames: int):
+    return disc_features(batch["global_positions"][:, :num_frames], batch["root_positions"][:, :num_frames],
+                         skeleton)
+
+
+def _window_mask(motion_mask, window: int):
+    """Valid window positions (..., T - window + 1): every frame of the window inside the motion."""
+    t = motion_mask.shape[-1]
+    count = jnp.sum(motion_mask.astype(jnp.int32), axis=-1, keepdims=True)
+    start = jnp.arange(t - window + 1)
+    return start + window <= count
+
+
+def _overlap_stitching_loss(out, loss_config, skeleton):
+    ov = out["overlap"]
+    return stitching_loss(ov["forward_positions"], ov["backward_positions"], ov["mask"],
+                          skeleton.position_scale, loss_config.reduction)
+
+
+def _fixed_feet(skeleton, field: str):
+    """The contact joints of `skeleton` (a ``SkeletonSpec``); a ValueError naming `field` when the dataset
+    reads them per file."""
+    if skeleton.feet is None:
+        raise ValueError(f"{field} needs a dataset with fixed feet; {skeleton.dataset!r} reads them from its "
+                         f"files (set {field}=0)")
+    return skeleton.feet
+
+
+def _foot_skate_term(out, batch, loss_config, skeleton):
+    """loss.foot_skate_weight's term on the stitched motion `out`, with the feet of `skeleton` (a
+    ``SkeletonSpec``) and the contacts that ``loss.foot_skate_contacts`` names."""
+    feet = _fixed_feet(skeleton, "loss.foot_skate_weight")
+    positions, mask = out["global_positions"], out["mask"]
+    t = positions.shape[1]
+    if loss_config.foot_skate_contacts == "truth":
+        return foot_skate_loss(positions, batch["contacts"][:, :t], mask, feet, skeleton.position_scale,
+                               loss_config.reduction)
+    if skeleton.up_sign < 0:  # heights would be measured downwards
+        raise ValueError(f"loss.foot_skate_contacts={loss_config.foot_skate_contacts!r} needs windows with a "
+                         f"positive up axis; {skeleton.dataset!r} loads them {skeleton.up_axis!r} up (use 'truth')")
+    up_axis = skeleton.up_index
+    contacts = foot_height_contacts(positions, batch["global_positions"][:, :t], mask, feet, up_axis,
+                                    either_end=loss_config.foot_skate_contacts == "height_either")
+    return foot_skate_loss(positions, contacts, mask, feet, skeleton.position_scale, loss_config.reduction,
+                           up_axis=up_axis)
+
+
+def _foot_velocity_term(out, batch, loss_config, skeleton):
+    """loss.foot_velocity_weight's term on the stitched motion `out`, with the feet of `skeleton`."""
+    feet = _fixed_feet(skeleton, "loss.foot_velocity_weight")
+    positions = out["global_positions"]
+    return foot_velocity_loss(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"], feet,
+                              skeleton.position_scale, loss_config.reduction)
