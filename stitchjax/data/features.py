@@ -24,7 +24,8 @@ from stitchjax import skeleton as skel
 
 __all__ = [
     "state_dim", "state_vector", "split_state", "root_velocities", "offset_features",
-    "local_positions", "integrate_root", "prepare_dataset", "dataset_states", "DatasetError",
+    "local_positions", "integrate_root", "prepare_dataset", "dataset_states", "phase_training_arrays",
+    "reverse_time", "DatasetError",
     "root_speed_percentiles", "RANDOM_START_KEYS", "cut_windows", "random_start_batch",
 ]
 
@@ -144,6 +145,28 @@ def dataset_states(dataset: dict, velocity_scale: float):
     velocity = root_velocities(dataset["root_positions"], velocity_scale)
     velocity = xp.concatenate([velocity[:, 1:2], velocity[:, 1:]], axis=1)
     return state_vector(dataset["rotations"], velocity, dataset["contacts"])
+
+
+def phase_training_arrays(dataset: dict, config) -> tuple:
+    """(states (N, S), labels (N, 2C)) of every frame of a prepared dataset's windows, the phase network's
+    pretraining set (``phase.pretrain_phase``); with ``phase.include_reversed`` also those of the same windows
+    played backwards (:func:`reverse_time`, the backward generator's states)."""
+    states = np.asarray(dataset_states(dataset, config.data.velocity_scale))
+    states = states.reshape(-1, states.shape[-1])
+    labels = np.asarray(dataset["phase"]).reshape(states.shape[0], -1)
+    if config.phase.include_reversed:  # the backward generator's states: time-reversed windows
+        reversed_windows = reverse_time(dataset)
+        rev_states = np.asarray(dataset_states(reversed_windows, config.data.velocity_scale))
+        rev_labels = phase.phase_labels(reversed_windows["contacts"], config.data.fps, config.phase)
+        states = np.concatenate([states, rev_states.reshape(-1, states.shape[-1])])
+        labels = np.concatenate([labels, np.asarray(rev_labels, np.float32).reshape(rev_states.shape[0] *
+                                                                                    rev_states.shape[1], -1)])
+    return states, labels
+
+
+def reverse_time(dataset: dict) -> dict:
+    """The windows played backwards: "rotations", "root_positions", "contacts" with the time axis reversed."""
+    return {name: np.asarray(dataset[name])[:, ::-1] for name in ("rotations", "root_positions", "contacts")}
 
 
 def root_speed_percentiles(root_positions, fps: float, up_axis: int = 1) -> dict:

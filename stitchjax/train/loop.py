@@ -1,7 +1,8 @@
-"""Training: the train state, one jitted train step and the loop.
+"""Training: the train state, one jitted train step, and a run set up around them.
 
-Size (~490 lines): one job; the schedule (``schedule.py``), which state a run starts from (``resume.py``),
-devices (``parallel.py``), records (``reporting.py``) and validation (``validation.py``) live elsewhere.
+The loop that runs the steps (``runner.py``), the schedule (``schedule.py``), which state a run starts from
+(``resume.py``), devices (``parallel.py``), records (``reporting.py``) and validation (``validation.py``) live
+elsewhere.
 
 Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `train`):
 
@@ -18,8 +19,9 @@ Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `tr
   (`stitchjax.accel.fast_rollout`); the model's rollout runs the plain model.
 - `schedule.transition_length(step, steps_per_epoch, train_config)`: the progressive length (stitchjax.train.schedule).
 - `train(config, workdir, ...)`: `resume.restore_or_init` (resume from the newest good checkpoint, start from
-  another run with `init_from`, or pretrain the phase network and initialise), `run_loop` (progress bar, metrics JSON lines, periodic checkpoints, NaN
-  guard, Ctrl-C / SIGTERM save), then `finish` (report.md and loss_curves.png).
+  another run with `init_from`, or pretrain the phase network and initialise), `runner.run_loop` (progress bar,
+  metrics JSON lines, periodic checkpoints, NaN guard, Ctrl-C / SIGTERM save), then `runner.finish` (report.md
+  and loss_curves.png).
 
 Devices, sharding and multi-host start-up: `stitchjax.parallel` (the same code runs on 1 CPU, 1 GPU, several
 GPUs or a TPU slice). With several processes, process 0 alone writes metrics, the report and the progress
@@ -30,40 +32,30 @@ from __future__ import annotations
 
 import os
 import pathlib
-import signal
 import time
 from typing import Any, Callable
 
 import flax.struct
 import jax
 import jax.numpy as jnp
-import numpy as np
 import optax
 from jax.sharding import Mesh
 from tqdm.auto import tqdm
 
 from stitchjax import checkpoints
 from stitchjax.data import datasets
-from stitchjax.train import resume, schedule
+from stitchjax.train import resume, runner, schedule
 from stitchjax import config as config_lib
 from stitchjax import parallel, specs
 from stitchjax.data import features, phase
 from stitchjax.accel import fast_rollout
 from stitchjax.model import networks, objective
-from stitchjax.eval import plots
 from stitchjax.train import reporting
+from stitchjax.train.runner import NonFiniteLossError, TrainingError
 from stitchjax.data import windows as windows_lib
 
 GENERATORS = ("forward", "backward")
 DISCRIMINATORS = ("disc_short", "disc_long")
-
-
-class TrainingError(RuntimeError):
-    """Training cannot go on (bad data, bad config, non-finite loss)."""
-
-
-class NonFiniteLossError(TrainingError):
-    """A loss term became NaN or infinite; the message names the term and the step."""
 
 
 class TrainState(flax.struct.PyTreeNode):
@@ -294,66 +286,17 @@ def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
     return train_step
 
 
-def check_finite(metrics: dict, step: int) -> None:
-    """Raise NonFiniteLossError naming the first non-finite metric (loss term) at `step`."""
-    for name, value in metrics.items():
-        if not np.all(np.isfinite(value)):
-            raise NonFiniteLossError(
-                f"loss term '{name}' is {float(np.asarray(value))} at step {step}: training stopped; the "
-                "last good checkpoint is kept (lower train.learning_rate or check the data, then resume)")
-
-
 # ---------------------------------------------------------------------------------------------- data
 
 
 def pretrain_phase_params(config, dataset: dict, key: jax.Array):
     """Pretrain the phase network on every frame of the training windows (and, with
     ``phase.include_reversed``, of the same windows played backwards); (params, final_loss)."""
-    states = np.asarray(features.dataset_states(dataset, config.data.velocity_scale))
-    states = states.reshape(-1, states.shape[-1])
-    labels = np.asarray(dataset["phase"]).reshape(states.shape[0], -1)
-    if config.phase.include_reversed:  # the backward generator's states: time-reversed windows
-        reversed_windows = reverse_time(dataset)
-        rev_states = np.asarray(features.dataset_states(reversed_windows, config.data.velocity_scale))
-        rev_labels = phase.phase_labels(reversed_windows["contacts"], config.data.fps, config.phase)
-        states = np.concatenate([states, rev_states.reshape(-1, states.shape[-1])])
-        labels = np.concatenate([labels, np.asarray(rev_labels, np.float32).reshape(rev_states.shape[0] *
-                                                                                    rev_states.shape[1], -1)])
+    states, labels = features.phase_training_arrays(dataset, config)
     return phase.pretrain_phase(key, states, labels, config.phase)
 
 
-def reverse_time(dataset: dict) -> dict:
-    """The windows played backwards: "rotations", "root_positions", "contacts" with the time axis reversed."""
-    return {name: np.asarray(dataset[name])[:, ::-1] for name in ("rotations", "root_positions", "contacts")}
-
-
 # ------------------------------------------------------------------------------------------------ loop
-
-
-class _StopFlag:
-    """Turns the first SIGINT / SIGTERM into a request to save and stop; a second one interrupts."""
-
-    def __init__(self):
-        self.requested = None
-        self._previous = {}
-
-    def __enter__(self):
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            try:
-                self._previous[sig] = signal.signal(sig, self._handle)
-            except ValueError:  # not the main thread: no signal handling
-                pass
-        return self
-
-    def _handle(self, signum, frame):
-        if self.requested is not None:
-            raise KeyboardInterrupt
-        self.requested = signal.Signals(signum).name
-
-    def __exit__(self, *exc):
-        for sig, handler in self._previous.items():
-            signal.signal(sig, handler)
-        return False
 
 
 def _fresh_state(config, dataset: dict, mesh: Mesh) -> TrainState:
@@ -367,18 +310,6 @@ def _fresh_state(config, dataset: dict, mesh: Mesh) -> TrainState:
     return create_train_state(config, key, phase_params, mesh)
 
 
-class _Saver:
-    """`saver(step, state)` writes a checkpoint with the run's config and extras; `saver.last`: the last
-    step saved (or restored from), None before any."""
-
-    def __init__(self, manager, config_json: dict, extras: dict, last: int | None):
-        self.manager, self.config_json, self.extras, self.last = manager, config_json, extras, last
-
-    def __call__(self, step: int, state: TrainState) -> None:
-        checkpoints.save(self.manager, step, state, self.config_json, self.extras)
-        self.last = step
-
-
 def _step_for_length(config, mesh: Mesh) -> Callable:
     """`step_for(length)`: the train step for transition length `length` (one compiled step per window)."""
     steps: dict = {}
@@ -390,98 +321,6 @@ def _step_for_length(config, mesh: Mesh) -> Callable:
         return steps[window]
 
     return step_for
-
-
-def run_loop(state: TrainState, device_data: dict, step_for: Callable, plan: schedule.RunPlan, train_config,
-             log: reporting.MetricsLog, saver: _Saver, bar, t_start: float,
-             validate: Callable | None = None) -> tuple[TrainState, dict]:
-    """Train from `state.step` to `plan.max_steps`, or until the first SIGINT / SIGTERM.
-
-    Logs the means over each `train.log_every` steps (time_s: seconds since `t_start`), every
-    `train.eval_every` steps also `validate(state)` (a record of its own; its time is not counted in
-    windows_per_s), saves every
-    `plan.checkpoint_every` steps (not the last: the caller saves it), advances `bar` (tqdm or None).
-    Returns (state, {"start_step", "step", "length", "stop_reason", "compile_s"}); compile_s: the first
-    step's seconds. Raises NonFiniteLossError at a NaN / inf metric.
-    """
-    tc = train_config
-    start_step = step = int(state.step)
-    stop_reason = "reached max_steps"
-    compile_s = 0.0
-    t_log, windows_since_log = time.perf_counter(), 0
-    length = schedule.transition_length(step, plan.steps_per_epoch, tc)
-    interval_sums, interval_count = {}, 0  # metrics are logged as means over the logging interval
-    with _StopFlag() as stop:
-        while step < plan.max_steps:
-            length = schedule.transition_length(step, plan.steps_per_epoch, tc)
-            t0 = time.perf_counter()
-            state, metrics = step_for(length)(state, device_data, jnp.int32(length))
-            metrics = jax.device_get(metrics)
-            check_finite(metrics, step + 1)
-            for name, value in metrics.items():
-                interval_sums[name] = interval_sums.get(name, 0.0) + float(value)
-            interval_count += 1
-            if step == start_step:
-                compile_s = time.perf_counter() - t0
-                t_log, windows_since_log = time.perf_counter(), 0
-            else:
-                windows_since_log += tc.batch_size
-            step += 1
-            if step % tc.log_every == 0 or step == plan.max_steps:
-                now = time.perf_counter()
-                rate = windows_since_log / max(now - t_log, 1e-9)
-                record = {"step": step, **{k: v / interval_count for k, v in interval_sums.items()},
-                          "length": int(length), "epoch": step / plan.steps_per_epoch,
-                          "windows_per_s": rate, "time_s": now - t_start}
-                log.write(record)
-                t_log, windows_since_log = now, 0
-                interval_sums, interval_count = {}, 0
-                if bar is not None:
-                    bar.set_postfix(loss=f"{record['loss']:.4g}", L=length, win_s=f"{rate:.0f}")
-            if validate is not None and step % tc.eval_every == 0:
-                t_val = time.perf_counter()
-                log.write({"step": step, **validate(state), "time_s": time.perf_counter() - t_start})
-                t_log += time.perf_counter() - t_val
-            if bar is not None:
-                bar.update(1)
-            if step % plan.checkpoint_every == 0 and step != plan.max_steps:
-                saver(step, state)
-            if stop.requested:
-                stop_reason = f"{stop.requested} received"
-                break
-    return state, {"start_step": start_step, "step": step, "length": int(length), "stop_reason": stop_reason,
-                   "compile_s": compile_s}
-
-
-def _close(bar, manager) -> None:
-    if bar is not None:
-        bar.close()
-    checkpoints.close(manager)
-
-
-def finish(workdir: pathlib.Path, config_name: str, outcome: dict, num_windows: int, train_config,
-           t_begin: float, t_start: float) -> dict:
-    """The run's summary (`outcome` of `run_loop` with timings in seconds since `t_begin` / `t_start`);
-    process 0 adds the final record and writes report.md and loss_curves.png."""
-    wall = time.perf_counter() - t_start
-    timed = max(outcome["step"] - outcome["start_step"] - 1, 0)
-    summary = {
-        "step": outcome["step"], "start_step": outcome["start_step"],
-        "steps_run": outcome["step"] - outcome["start_step"], "wall_s": wall, "setup_s": t_start - t_begin,
-        "compile_s": outcome["compile_s"], "stop_reason": outcome["stop_reason"], "length": outcome["length"],
-        "windows_per_s": (timed * train_config.batch_size / max(wall - outcome["compile_s"], 1e-9)
-                          if timed else 0.0),
-        "devices": f"{jax.device_count()} x {jax.devices()[0].platform}",
-        "num_windows": num_windows, "batch_size": train_config.batch_size, "workdir": str(workdir),
-        "log_every": train_config.log_every,
-    }
-    if jax.process_index() == 0:
-        records = reporting.read_metrics(workdir / "metrics.jsonl")
-        summary["final"] = next((r for r in reversed(records) if "loss" in r), {})  # not a validation record
-        reporting.write_report(workdir, config_name or "config", records, summary)
-        if records:
-            plots.loss_curves(records, path=workdir / "loss_curves.png")
-    return summary
 
 
 def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | None = None,
@@ -504,13 +343,8 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
     workdir = pathlib.Path(workdir).expanduser().resolve()
     workdir.mkdir(parents=True, exist_ok=True)
     mesh = parallel.make_mesh() if mesh is None else mesh
-    if dataset is None:
-        dataset, stats = datasets.load_training_data(config, data_dir)
+    dataset, stats, device_data = _training_data(config, data_dir, dataset, stats, mesh)
     num_windows = int(next(iter(dataset.values())).shape[0])
-    if num_windows == 0:
-        raise TrainingError("no training windows: check --data and config.data (window length, subjects)")
-    local = parallel.local_windows_slice(num_windows)
-    device_data = parallel.shard_dataset({k: v[local] for k, v in dataset.items()}, mesh)
     plan = schedule.plan_run(num_windows, config.train, max_steps)
 
     manager = checkpoints.open_manager(workdir, max_to_keep=config.train.max_to_keep)
@@ -521,33 +355,60 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
                                                lambda: _fresh_state(config, dataset, mesh), init_from)
     except resume.ResumeError as error:
         raise TrainingError(str(error)) from None
-    extras = {"stats": datasets.stats_to_json(stats), "config_name": config_name,
-              "skeleton": datasets.skeleton_facts(data_dir, config.data)}
-    # the training windows' 99th percentile of horizontal root speed (cm/s): the fastest transition a
-    # placed target may ask for (stitchjax.sample.takes)
-    extras["stats"]["root_speed_p99"] = features.root_speed_percentiles(dataset["root_positions"],
-                                                                        config.data.fps)["p99"]
-    saver = _Saver(manager, config_json, extras, latest)
+    extras = _checkpoint_extras(config, config_name, data_dir, dataset, stats)
+    saver = runner.Saver(manager, config_json, extras, latest)
     validate = (make_validator(config, data_dir, extras["stats"], extras["skeleton"])
                 if make_validator is not None and config.train.eval_every > 0 else None)
     step_for = (lambda length: train_step) if train_step is not None else _step_for_length(config, mesh)
     bar = (tqdm(total=plan.max_steps, initial=int(state.step), unit="step", dynamic_ncols=True)
            if progress and jax.process_index() == 0 else None)
     t_start = time.perf_counter()
-    try:
-        state, outcome = run_loop(state, device_data, step_for, plan, config.train, log, saver, bar, t_start,
-                                  validate)
-    except NonFiniteLossError as error:
-        _close(bar, manager)
-        raise NonFiniteLossError(
-            f"{error} (checkpoint kept: {'none' if saver.last is None else f'step {saver.last}'} in "
-            f"{checkpoints.checkpoint_dir(workdir)})") from None
-    except KeyboardInterrupt:  # a second Ctrl-C: the state may be mid-update, so do not save it
-        _close(bar, manager)
-        raise
+    state, outcome = _closing_on_error(
+        lambda: runner.run_loop(state, device_data, step_for, plan, config.train, log, saver, bar, t_start, validate),
+        workdir, manager, bar, saver)
     if bar is not None:
         bar.close()
     if saver.last != outcome["step"]:
         saver(outcome["step"], state)
     checkpoints.close(manager)
-    return finish(workdir, config_name, outcome, num_windows, config.train, t_begin, t_start)
+    return runner.finish(workdir, config_name, outcome, num_windows, config.train, t_begin, t_start)
+
+
+def _training_data(config, data_dir, dataset: dict | None, stats, mesh: Mesh) -> tuple:
+    """(dataset, stats, device_data): the training windows (loaded from `data_dir` unless given) and this
+    process's share of them sharded over `mesh`. TrainingError when there is no window."""
+    if dataset is None:
+        dataset, stats = datasets.load_training_data(config, data_dir)
+    num_windows = int(next(iter(dataset.values())).shape[0])
+    if num_windows == 0:
+        raise TrainingError("no training windows: check --data and config.data (window length, subjects)")
+    local = parallel.local_windows_slice(num_windows)
+    device_data = parallel.shard_dataset({k: v[local] for k, v in dataset.items()}, mesh)
+    return dataset, stats, device_data
+
+
+def _checkpoint_extras(config, config_name: str, data_dir, dataset: dict, stats) -> dict:
+    """What every checkpoint of the run holds beside the state: the data statistics, the config's name and the
+    skeleton's facts."""
+    extras = {"stats": datasets.stats_to_json(stats), "config_name": config_name,
+              "skeleton": datasets.skeleton_facts(data_dir, config.data)}
+    # the training windows' 99th percentile of horizontal root speed (cm/s): the fastest transition a
+    # placed target may ask for (stitchjax.sample.takes)
+    extras["stats"]["root_speed_p99"] = features.root_speed_percentiles(dataset["root_positions"],
+                                                                        config.data.fps)["p99"]
+    return extras
+
+
+def _closing_on_error(run: Callable, workdir: pathlib.Path, manager, bar, saver: runner.Saver) -> tuple:
+    """``run()`` (the run's loop); on a non-finite loss or a second Ctrl-C the progress bar and the checkpoint
+    manager are closed first, and the NonFiniteLossError names the checkpoint kept."""
+    try:
+        return run()
+    except NonFiniteLossError as error:
+        runner.close(bar, manager)
+        raise NonFiniteLossError(
+            f"{error} (checkpoint kept: {'none' if saver.last is None else f'step {saver.last}'} in "
+            f"{checkpoints.checkpoint_dir(workdir)})") from None
+    except KeyboardInterrupt:  # a second Ctrl-C: the state may be mid-update, so do not save it
+        runner.close(bar, manager)
+        raise

@@ -177,7 +177,7 @@ def test_configs_saved_before_the_posterior_are_refused_naming_the_fields_to_add
 def test_reverse_time_and_phase_pretraining_on_reversed_windows():
     data = {"rotations": np.arange(2 * 3 * 1 * 4.0).reshape(2, 3, 1, 4),
             "root_positions": np.arange(18.0).reshape(2, 3, 3), "contacts": np.arange(6.0).reshape(2, 3, 1)}
-    rev = train.reverse_time(data)
+    rev = F.reverse_time(data)
     np.testing.assert_array_equal(rev["root_positions"][:, 0], data["root_positions"][:, -1])
     np.testing.assert_array_equal(rev["contacts"][:, ::-1], data["contacts"])
 
