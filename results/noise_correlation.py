@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Sampling a trained model with latent noise correlated over frames (``rollout.correlated_noise``).
+"""Sampling a trained model with latent noise correlated over frames (``noise.correlated_noise``).
 
     python results/noise_correlation.py --checkpoint runs/cvae_long --data ../shared/data/lafan1 \
         --json results/lafan1_cpu/noise_correlation.json

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Sampling a trained model with its latent noise ramped up from each keyframe (``rollout.noise_ramp``).
+"""Sampling a trained model with its latent noise ramped up from each keyframe (``noise.noise_ramp``).
 
     python results/noise_ramp.py --checkpoint runs/decay512 --data ../shared/data/lafan1 \
         --ramps 0,4,8 --noise-scales 1,1.5 --json results/lafan1_cpu/from_skate512/noise_ramp.json
