@@ -30,7 +30,9 @@ A post-process over generated transitions (start keyframe, L generated frames, t
    bones keep their lengths exactly (only rotations change), the knee stays in the plane of the generated pose
    (pole vector, biased over the toes by ``pole_hint`` so a straight leg bends the right way), and the reach is
    softened near full extension (``soft_reach``), so a leg is straightened, never stretched, and never snaps
-   straight.
+   straight. Between plants the ankle's correction changes no faster than the generated foot's spare speed
+   and the solved knee angle no faster than the generated knee's plus ``knee_step`` degrees per frame
+   (:mod:`stitchjax.sample.foot_speed`): easing to a plant adds no joint jump.
 
 Frames that no span, blend or lift touches, both keyframes among them, are returned bit for bit as given.
 The root, the upper body and every joint's offset are unchanged; only the hip, knee and ankle rotations of
@@ -51,6 +53,7 @@ import numpy as np
 
 from stitchjax import rotations as R
 from stitchjax.sample.foot_easing import blended_corrections, clearance_lift, eased_plants
+from stitchjax.sample.foot_speed import limit_correction_speed, limit_knee_speed
 from stitchjax.sample.foot_spans import (bridge_gaps, drop_short_spans, hysteresis, reachable_spans, release_room,
                                          span_targets)
 from stitchjax.sample.leg_ik import SOFT_REACH, leg_chains, leg_rotations
@@ -93,6 +96,14 @@ class FootLockConfig:
       skating (0: off). The lift is eased in and out over ``clearance_frames`` frames.
     pole_hint: the ankle-to-toe vector times this is added to the knee's pole (``leg_ik.two_bone_ik``), so a
       nearly straight leg bends its knee over the toes, as legs do, instead of where rounding points (0: off).
+    correction_step: the ankle's correction may change by at most max(V - s, correction_step) cm per frame,
+      where s is the generated ankle's step that frame and V its largest step in the transition
+      (``foot_speed.limit_correction_speed``): a corrected foot moves no faster than the generated foot's own
+      top speed (plus this), so easing to a plant never whips the leg (< 0: no limit).
+    knee_step: the solved knee angle may change per frame by at most the generated knee's change plus this
+      many degrees (``foot_speed.limit_knee_speed``; planted frames and keyframes exact): near full extension
+      a small change of reach is a large change of angle, so a leg is never snapped straight or bent (< 0: no
+      limit).
     up_axis: the vertical axis of the positions.
     """
 
@@ -117,6 +128,8 @@ class FootLockConfig:
     clearance_speed: float = 2.0
     clearance_frames: int = 2
     pole_hint: float = 0.3
+    correction_step: float = 1.0
+    knee_step: float = 6.0
     up_axis: int = 1
 
     def __post_init__(self):
@@ -242,10 +255,17 @@ def _lock_leg(rotations, g_rot, g_pos, heights, contacts, offsets, leg: tuple, p
     offset, turn, weight = _plant_corrections(anchor, keyframe, kept, target, target_rotation, g_pos[:, ankle],
                                               g_rot[:, ankle], config)
     offset, lift = _with_clearance(offset, turn, g_pos[:, ankle], g_pos[:, toe], contact, anchor, grounds, config)
+    if config.correction_step >= 0:
+        offset = limit_correction_speed(offset, g_pos[:, ankle], anchor, config.correction_step)
     active = ~keyframe & (jnp.any(offset != 0, axis=-1) | (turn[:, 0] < 1.0))
     if not config.ease_to_plant and config.clearance <= 0:
         active = active & (weight > 0)
-    local = leg_rotations(rotations, g_rot, g_pos, leg, parents, offset, turn, upper, lower, config.soft_reach,
+    goal = g_pos[:, ankle] + offset
+    if config.knee_step >= 0:
+        goal = limit_knee_speed(g_pos[:, hip], goal, g_pos[:, ankle], upper, lower, anchor, config.soft_reach,
+                                config.knee_step)
+        active = active | (~keyframe & jnp.any(goal != g_pos[:, ankle] + offset, axis=-1))
+    local = leg_rotations(rotations, g_rot, g_pos, leg, parents, goal, turn, upper, lower, config.soft_reach,
                           config.pole_hint)
     stats = {"planted": kept & ~keyframe, "let_go": spans & ~reachable_spans(spans, reachable), "changed": active,
              "lifted": active & (lift > 0.01)}

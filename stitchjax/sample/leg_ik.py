@@ -89,19 +89,19 @@ def two_bone_ik(hip, knee, ankle, target, upper, lower, soft: float = SOFT_REACH
     return hip_turn, knee_turn, new_knee, new_ankle, distance / length
 
 
-def leg_rotations(rotations, global_rotations, global_positions, leg: tuple, parents: tuple, offset, turn, upper,
+def leg_rotations(rotations, global_rotations, global_positions, leg: tuple, parents: tuple, goal, turn, upper,
                   lower, soft: float = SOFT_REACH, pole_hint: float = 0.0) -> dict:
-    """{hip, knee, ankle: (T, 4) new local rotation} that move one leg's ankle by ``offset`` and turn its foot.
+    """{hip, knee, ankle: (T, 4) new local rotation} that move one leg's ankle to ``goal`` and turn its foot.
 
     rotations: (T, J, 4) local rotations; global_rotations, global_positions: (T, J, 4), (T, J, 3) their
-    forward kinematics; leg: (hip, knee, ankle, toe, ...) of :func:`leg_chains`; offset: (T, 3) the ankle's
-    correction; turn: (T, 4) the foot's correcting global rotation; upper, lower: the thigh and shin lengths.
+    forward kinematics; leg: (hip, knee, ankle, toe, ...) of :func:`leg_chains`; goal: (T, 3) the ankle's
+    new position; turn: (T, 4) the foot's correcting global rotation; upper, lower: the thigh and shin lengths.
     The knee's pole is biased by ``pole_hint`` x the ankle-to-toe vector (0: off). Each new rotation is put
     in the hemisphere of the joint's old one."""
     hip, knee, ankle, toe = leg[:4]
     g_rot, g_pos = global_rotations, global_positions
     hip_turn, knee_turn, _, _, _ = two_bone_ik(g_pos[:, hip], g_pos[:, knee], g_pos[:, ankle],
-                                               g_pos[:, ankle] + offset, upper, lower, soft,
+                                               goal, upper, lower, soft,
                                                pole_hint * (g_pos[:, toe] - g_pos[:, ankle])
                                                if pole_hint > 0 else None)
     hip_global = R.quat_mul(hip_turn, g_rot[:, hip])

@@ -5,7 +5,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from stitchjax.sample import foot_easing, foot_spans, footlock, leg_ik
+from stitchjax.sample import foot_easing, foot_spans, foot_speed, footlock, leg_ik
 from stitchjax import rotations as R
 from stitchjax.skeleton import Skeleton, forward_kinematics
 
@@ -247,5 +247,74 @@ def test_skating_foot_is_planted_or_lifted():
     assert stats["planted"].any() and stats["lifted"].any()
     assert np.array_equal(locked[[0, -1]], rotations[[0, -1]])
     g = _global_positions(locked, root)
+    np.testing.assert_allclose(_bone_lengths(g), np.broadcast_to(np.linalg.norm(OFFSETS[1:], axis=-1), (frames, 4)),
+                               atol=1e-3)
+
+
+def test_limit_correction_speed_keeps_anchors_and_the_generated_top_speed():
+    n = 24
+    t = np.arange(n)
+    speed = 0.5 + 7.5 * np.sin(np.pi * np.clip(t - 4, 0, 16) / 16) ** 2  # the generated foot speeds up and stops
+    ankle = jnp.asarray(np.stack([np.cumsum(speed), np.zeros(n), np.zeros(n)], -1), jnp.float32)
+    anchor = jnp.zeros(n, bool).at[:4].set(True).at[-1].set(True)
+    offset = jnp.zeros((n, 3)).at[:4, 0].set(-6.0).at[4:12, 0].set(jnp.linspace(-6.0, 4.0, 8))  # a jerky ease
+    limited = np.asarray(foot_speed.limit_correction_speed(offset, ankle, anchor, floor=1.0))
+    assert np.array_equal(limited[np.asarray(anchor)], np.asarray(offset)[np.asarray(anchor)])
+    step = np.linalg.norm(np.diff(np.asarray(ankle), axis=0), axis=-1)
+    moved = np.linalg.norm(np.diff(np.asarray(ankle) + limited, axis=0), axis=-1)
+    assert np.all(moved <= np.maximum(step.max(), step + 1.0) + 1e-4)
+    unlimited = np.linalg.norm(np.diff(np.asarray(ankle + offset), axis=0), axis=-1)
+    assert unlimited.max() > step.max() + 1.0  # the ease alone would outrun the foot
+    zeros = foot_speed.limit_correction_speed(jnp.zeros((n, 3)), ankle, anchor, floor=1.0)
+    assert not np.asarray(zeros).any()  # no correction stays no correction, exactly
+
+
+def test_limit_knee_speed_bounds_the_solved_knee_angle_change():
+    n = 12
+    hip = jnp.zeros((n, 3)).at[:, 1].set(80.0)
+    ankle = jnp.zeros((n, 3)).at[:, 1].set(80.0 - 60.0)  # the generated knee keeps its angle
+    distance = jnp.asarray([60.0] * 4 + [79.0] * 4 + [60.0] * 4)  # the goal snaps the leg straight and back
+    goal = hip - distance[:, None] * jnp.asarray([0.0, 1.0, 0.0])
+    anchor = jnp.zeros(n, bool).at[0].set(True).at[-1].set(True)
+    out = foot_speed.limit_knee_speed(hip, goal, ankle, jnp.float32(40.0), jnp.float32(40.0), anchor, 0.97, 6.0)
+    reach = leg_ik.soft_reach(jnp.linalg.norm(out - hip, axis=-1), jnp.float32(80.0), 0.97)
+    angle = np.degrees(np.asarray(foot_speed.knee_angle(reach, jnp.float32(40.0), jnp.float32(40.0))))
+    assert np.abs(np.diff(angle)).max() <= 6.0 + 1e-3
+    assert np.array_equal(np.asarray(out)[[0, -1]], np.asarray(goal)[[0, -1]])
+    assert angle[7] >= angle[3] + 4 * 6.0 - 1e-3  # it still straightens, as fast as allowed
+
+
+def test_easing_between_plants_adds_no_joint_jump_or_knee_snap():
+    """A foot that stands, swings forward at up to 12 cm/frame and stands again: without the speed limits the
+    eased foot whips between its plants; with them the largest joint step stays within 15 % of the generated
+    one and the knee angle changes per frame by at most the generated change plus ``knee_step``."""
+    frames = 40
+    t = np.arange(frames)
+    speed = 0.5 + np.where((t > 12) & (t < 28), 11.5 * np.sin(np.pi * (t - 12) / 16) ** 2, 0.0)
+    rotations, root = _pose(frames, knee_degrees=60.0)
+    root[:, 2] = np.concatenate([[0.0], np.cumsum(speed[1:])])
+    contacts = np.ones((frames, 2))
+    contacts[0] = contacts[-1] = 0.0
+    local = np.broadcast_to(OFFSETS, rotations.shape[:-1] + (3,)).copy()
+    local[:, 0] = root
+
+    def knee(g):
+        u, v = g[:, 1] - g[:, 2], g[:, 3] - g[:, 2]
+        cos = (u * v).sum(-1) / np.linalg.norm(u, axis=-1) / np.linalg.norm(v, axis=-1)
+        return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+    def largest_jump(g):
+        return np.linalg.norm(np.diff(g, axis=0), axis=-1).max()
+
+    before = _global_positions(rotations, root)
+    unlimited = footlock.FootLockConfig(correction_step=-1.0, knee_step=-1.0)
+    old, _, _ = footlock.lock_transitions(rotations, local, contacts, SKELETON, FEET, unlimited)
+    new, _, stats = footlock.lock_transitions(rotations, local, contacts, SKELETON, FEET)
+    assert largest_jump(_global_positions(old, root)) > 1.5 * largest_jump(before)  # the artefact
+    g = _global_positions(new, root)
+    assert largest_jump(g) <= 1.15 * largest_jump(before)
+    assert np.abs(np.diff(knee(g))).max() <= np.abs(np.diff(knee(before))).max() + 6.0 + 1e-3
+    assert stats["planted"][:, 0].sum() >= 20  # both plants still held
+    assert np.array_equal(new[[0, -1]], rotations[[0, -1]])
     np.testing.assert_allclose(_bone_lengths(g), np.broadcast_to(np.linalg.norm(OFFSETS[1:], axis=-1), (frames, 4)),
                                atol=1e-3)

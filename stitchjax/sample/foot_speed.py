@@ -1,0 +1,96 @@
+"""Speed limits on foot locking's corrections: easing a foot between plants adds no joint jump or knee snap.
+
+Mid-swing the generated foot can be far from both plants, so the eased correction flips from pulling back to
+pushing ahead within a few frames, and the IK goal crosses near-full extension, where a small change of reach
+is a large change of knee angle. :func:`limit_correction_speed` keeps the corrected ankle no faster than the
+generated foot's own top speed; :func:`limit_knee_speed` keeps the solved knee angle's change per frame close
+to the generated knee's. Anchor frames (plants, keyframes) keep their values exactly.
+"""
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from stitchjax.sample.leg_ik import soft_reach
+
+__all__ = ["limit_correction_speed", "knee_angle", "limit_knee_speed"]
+
+
+def limit_correction_speed(offset, ankle, anchor, floor: float):
+    """(T, 3) ``offset`` (the ankle's correction) with its change per frame limited to the generated ankle's
+    spare speed: at most max(V - |ankle_t - ankle_t-1|, floor) cm from frame t-1 to t, V the largest such
+    step of ``ankle`` (T, 3) over the transition. So the corrected ankle's step is at most max(V, step +
+    floor): no faster than the generated foot's own top speed where it moves fast, while a foot slow enough
+    to spare the speed still leaves and reaches its plants at rest. anchor: (T,) bool frames whose offset is
+    kept exactly (plants, keyframes); between them a forward then a backward pass clip each step towards
+    ``offset``, so the limit holds wherever the gap leaves enough room."""
+    step = _norm(jnp.diff(ankle, axis=0))
+    allowed = jnp.maximum(jnp.max(step) - step, floor)  # (T - 1,) for the step t-1 -> t
+    allowed = allowed * _gap_scale(_norm(jnp.diff(offset, axis=0)), allowed, anchor)
+    return _limit_steps(offset, allowed, anchor)
+
+
+def knee_angle(reach, upper, lower):
+    """(...) the knee's inner angle (radians, pi: straight) of a leg whose ankle is ``reach`` from its hip."""
+    return jnp.arccos(jnp.clip((upper**2 + lower**2 - reach**2) / (2.0 * upper * lower), -1.0, 1.0))
+
+
+def limit_knee_speed(hip, goal, ankle, upper, lower, anchor, soft: float, step_degrees: float):
+    """(T, 3) ankle goals ``goal`` moved along the hip's line so that the knee angle :func:`two_bone_ik` solves
+    changes per frame by at most the generated knee's change plus ``step_degrees``.
+
+    hip, goal, ankle: (T, 3) the hip, the ankle's goal and the generated ankle; upper, lower: the thigh and
+    shin lengths; anchor: (T,) bool frames whose goal is kept (plants, keyframes); soft: the IK's
+    ``soft_reach``. The angles of the softened reaches are limited as in :func:`limit_correction_speed` (the
+    limit gives way where a gap between anchors is too short), then turned back into distances from the hip.
+    Frames the limit leaves alone keep their goal exactly."""
+    length = upper + lower
+    to_goal = goal - hip
+    distance = _norm(to_goal)
+    shortest = jnp.abs(upper - lower) + 1e-4 * length
+    angle = knee_angle(jnp.maximum(soft_reach(distance, length, soft), shortest), upper, lower)
+    generated = knee_angle(_norm(ankle - hip), upper, lower)
+    allowed = jnp.abs(jnp.diff(generated)) + jnp.radians(step_degrees)
+    allowed = allowed * _gap_scale(jnp.diff(angle), allowed, anchor)
+    limited = _limit_steps(angle, allowed, anchor)
+    reach = jnp.sqrt(jnp.maximum(upper**2 + lower**2 - 2.0 * upper * lower * jnp.cos(limited), 0.0))
+    knee, span = soft * length, (1.0 - soft) * length  # soft_reach inverted
+    unsoftened = knee - span * jnp.log(jnp.maximum(1.0 - (reach - knee) / span, 1e-6))
+    reach = jnp.where(reach > knee, unsoftened, reach)
+    moved = hip + (reach / distance)[:, None] * to_goal
+    return jnp.where((jnp.abs(limited - angle) > 1e-6)[:, None], moved, goal)
+
+
+def _norm(x):
+    """(...) Euclidean norm over the last axis (smooth at 0)."""
+    return jnp.sqrt(jnp.sum(x**2, axis=-1) + 1e-12)
+
+
+def _gap_scale(need, allowed, anchor):
+    """(T - 1,) factor >= 1 on the allowed steps (T - 1,) between two anchors (T,) bool, so that their sum over
+    each gap is at least |the sum of ``need``| (T - 1,) there (the unlimited sequence's path length, or for an
+    angle its signed steps: the change from anchor to anchor): the limit gives way where a gap is too short
+    for it, instead of breaking at the anchor."""
+    n = anchor.shape[0]
+    gap = jnp.cumsum(anchor[:-1].astype(jnp.int32))  # the steps t-1 -> t between the same two anchors
+    total_need = jnp.abs(jax.ops.segment_sum(need, gap, num_segments=n + 1))[gap]
+    total_allowed = jax.ops.segment_sum(allowed, gap, num_segments=n + 1)[gap]
+    return jnp.maximum(1.0, total_need / jnp.maximum(total_allowed, 1e-6))
+
+
+def _limit_steps(x, allowed, anchor):
+    """(T, ...) ``x`` with each step t-1 -> t at most ``allowed`` (T - 1,) long: a forward then a backward pass
+    clip each step towards ``x``; anchor (T,) bool frames keep ``x`` exactly."""
+    def clip(v, limit):
+        return v * jnp.minimum(1.0, limit / _norm(v[..., None] if v.ndim == 0 else v))
+
+    def step_to(previous, xs):
+        value, a, limit = xs
+        free = a | (_norm((value - previous)[..., None] if value.ndim == 0 else value - previous) <= limit)
+        out = jnp.where(free, value, previous + clip(value - previous, limit))
+        return out, out
+
+    _, forward = jax.lax.scan(step_to, x[0], (x[1:], anchor[1:], allowed))
+    forward = jnp.concatenate([x[:1], forward])
+    _, backward = jax.lax.scan(step_to, forward[-1], (forward[:-1], anchor[:-1], allowed), reverse=True)
+    return jnp.concatenate([backward, forward[-1:]])
