@@ -66,7 +66,7 @@ class DataConfig:
     extra_train_dirs: tuple = ()  # more folders of training takes on the same skeleton, conformed on load
     # (datasets.training_set); relative paths are to --data; a test, validation or main take is refused
     random_starts: bool = False  # True: a training window may start at any frame (features.random_start_batch)
-    mirror: bool = False  # True: every training window also trains as its left/right mirror (windows.mirror_arrays)
+    mirror: bool = False  # True: every training window also trains as its left/right mirror (mirror.mirror_arrays)
 
     @property
     def num_joints(self) -> int:
