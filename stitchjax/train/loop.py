@@ -1,5 +1,7 @@
 """Training: the train state, one jitted train step, and a run set up around them.
 
+Size (~415 lines): one job, the train state and the step that updates it; the loop that runs it is runner.py.
+
 The loop that runs the steps (``runner.py``), the schedule (``schedule.py``), which state a run starts from
 (``resume.py``), devices (``parallel.py``), records (``reporting.py``) and validation (``validation.py``) live
 elsewhere.
