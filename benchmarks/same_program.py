@@ -26,15 +26,17 @@ import sys
 sys.path.insert(0, sys.argv[1])
 import jax, jax.numpy as jnp
 from stitchjax import config as C, parallel
-from stitchjax.sample import inbetween
-from stitchjax.train import loop as train
 import os
-if os.path.exists(os.path.join(sys.argv[1], "stitchjax", "sample", "trained_model.py")):
+if os.path.isdir(os.path.join(sys.argv[1], "stitchjax", "sample")):  # the stage subpackages
+    from stitchjax.sample import inbetween
+    from stitchjax.train import loop as train
     from stitchjax.sample.trained_model import random_model
-elif os.path.exists(os.path.join(sys.argv[1], "stitchjax", "trained_model.py")):  # before the stage subpackages
-    from stitchjax.trained_model import random_model
-else:  # checkouts from before the model-loading module (not found by import: an editable install elsewhere
-    random_model = inbetween.random_model  # may still resolve the name)
+else:  # before the stage subpackages
+    from stitchjax import inbetween, train
+    if os.path.exists(os.path.join(sys.argv[1], "stitchjax", "trained_model.py")):
+        from stitchjax.trained_model import random_model
+    else:  # checkouts from before the model-loading module
+        random_model = inbetween.random_model
 cfg = C.apply_overrides(C.load_config(sys.argv[1] + "/configs/lafan1_cpu.py"), sys.argv[4:])
 mesh = parallel.make_mesh()
 update = train.make_train_step(cfg, mesh, 52).update
