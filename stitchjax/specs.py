@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
+from stitchjax.accel import matmul as accel_matmul
 from stitchjax.data import conform, datasets
 from stitchjax.model import networks
 from stitchjax.model import rollout as rollout_lib
@@ -95,6 +96,7 @@ def loss_spec(config) -> LossSpec:
 
 
 def train_spec(config) -> TrainSpec:
-    """The :class:`TrainSpec` of `config`: built once where the train step is made."""
-    return TrainSpec(rollout=rollout_lib.rollout_spec(config), loss=loss_spec(config),
+    """The :class:`TrainSpec` of `config`: built once where the train step is made. Its generator runs on
+    ``accel.matmul``'s layers (the ``model.matmul_dtype`` matmul, the ELU's derivative from its output)."""
+    return TrainSpec(rollout=accel_matmul.with_layers(rollout_lib.rollout_spec(config)), loss=loss_spec(config),
                      skeleton=skeleton_spec(config))

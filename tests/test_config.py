@@ -86,9 +86,10 @@ def test_every_field_documents_its_choice():
 
 
 def test_override_choices_match_what_the_networks_accept():
+    from stitchjax.accel import matmul as accel_matmul
     from stitchjax.model import layers, networks
 
-    assert set(C.CHOICES[("model", "matmul_dtype")]) == set(layers.MATMUL_DTYPES)
+    assert set(C.CHOICES[("model", "matmul_dtype")]) == set(accel_matmul.MATMUL_DTYPES)
     assert set(C.CHOICES[("model", "activation")]) == set(layers._ACTIVATIONS)
     for mode in C.CHOICES[("model", "variance_blend")]:
         networks.blend_gaussians(0.0, 0.0, 1.0, 0.0, 0.5, mode)  # accepted

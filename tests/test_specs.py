@@ -1,5 +1,6 @@
 """Specs: the Config resolved once into small frozen specs that the losses, the rollout and the networks read."""
 import ast
+import dataclasses
 import pathlib
 
 import jax
@@ -7,6 +8,7 @@ import pytest
 
 from stitchjax import config as C
 from stitchjax import specs
+from stitchjax.accel import matmul as accel_matmul
 from stitchjax.model import losses, networks, objective, rollout
 from stitchjax.skeleton import LAFAN1_FEET
 
@@ -52,7 +54,8 @@ def test_specs_are_hashable_and_hold_only_what_their_readers_read():
     bigger_batch = C.apply_overrides(config, ["train.batch_size=64"])
     assert rollout.rollout_spec(bigger_batch) == rollout.rollout_spec(config)
     assert rollout.rollout_spec(C.apply_overrides(config, ["model.stitch_buffer=3"])) != rollout.rollout_spec(config)
-    assert spec.rollout.generator == networks.generator_spec(config)
+    # the training step's generator runs on accel's layers (stitchjax.accel.matmul)
+    assert spec.rollout.generator == dataclasses.replace(networks.generator_spec(config), layers=accel_matmul.LAYERS)
     assert spec.loss.discriminators == networks.discriminator_spec(config)
     assert (spec.loss.discriminators.short_window, spec.loss.discriminators.long_window) == (
         config.model.disc_short_window, config.model.disc_long_window)

@@ -2,7 +2,7 @@
 (:mod:`stitchjax.accel.scan_gradients`) and of the taped replay (:mod:`stitchjax.accel.tape`).
 
 ``kernel_matmul`` is a product ``x @ W`` that can add a zero probe and record its input; ``ProbedDense``,
-``ProbedLSTMCell`` and ``ProbedMoEDense`` are ``layers``' plain layers (same parameters, same values) built on
+``ProbedLSTMCell`` and ``ProbedMoEDense`` are ``accel.matmul``'s layers (same parameters, same values) built on
 it, and :func:`probed_generator` the generator made of them, which the training step's rollout runs.
 """
 from __future__ import annotations
@@ -12,8 +12,9 @@ import jax
 import jax.numpy as jnp
 
 from stitchjax.model import layers, networks
+from stitchjax.accel import matmul as matmul_lib
 from stitchjax.accel import tape as tape_lib
-from stitchjax.model.layers import matmul
+from stitchjax.accel.matmul import matmul
 
 __all__ = ["SHARED_PROBES", "LSTM_GATES", "KERNEL_OUTPUT_TAPES", "kernel_matmul", "input_size", "ProbedDense",
            "ProbedLSTMCell", "ProbedMoEDense", "probed_generator", "RecordingHook"]
@@ -32,7 +33,7 @@ def kernel_matmul(module: nn.Module, x, kernel, name: str, dtype: str = "float32
 
     x: (..., in), or a tuple of parts (..., in_i) whose concatenation is the input (the parts are recorded
     apart, so a part that is also another matmul's input or a taped value is recorded once).
-    dtype: the operands' precision (see :func:`matmul`); the result is float32 either way.
+    dtype: the operands' precision (see ``accel.matmul.matmul``); the result is float32 either way.
 
     Plain matmul, except: with a mutable ``"inputs"`` collection the input (or its parts) is recorded under
     ``name``; with a ``"probes"`` collection holding ``name`` (gradient probing, ``fast_rollout``)
@@ -65,7 +66,7 @@ def input_size(x) -> int:
     return sum(part.shape[-1] for part in _parts(x))
 
 
-class ProbedDense(layers.Dense):
+class ProbedDense(matmul_lib.Dense):
     """:class:`layers.Dense` whose matmul is a :func:`kernel_matmul` and whose output (activation included)
     is the output-tape point "output" (``stitchjax.accel.tape``)."""
 
@@ -74,10 +75,11 @@ class ProbedDense(layers.Dense):
         kernel = self.param("kernel", nn.initializers.lecun_normal(), (input_size(x), self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.features,))
         y = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype) + bias
-        return tape_lib.tape_point(self, "output", self.activation, y, layers.LAYER_FUNCTIONS[self.activation], True)
+        activation = matmul_lib.LAYER_FUNCTIONS[self.activation]
+        return tape_lib.tape_point(self, "output", self.activation, y, activation, True)
 
 
-class ProbedLSTMCell(layers.LSTMCell):
+class ProbedLSTMCell(matmul_lib.LSTMCell):
     """:class:`layers.LSTMCell` with :func:`kernel_matmul` products; each gate's nonlinearity is an
     output-tape point (``LSTM_GATES``) and the cell's tanh a tape point "cell_tanh"."""
 
@@ -98,7 +100,7 @@ class ProbedLSTMCell(layers.LSTMCell):
         return (c, h), h
 
 
-class ProbedMoEDense(layers.MoEDense):
+class ProbedMoEDense(matmul_lib.MoEDense):
     """:class:`layers.MoEDense` with a :func:`kernel_matmul` product; the experts' outputs are the
     output-tape point "output" and the activation after the blend (if any) the tape point "activation"."""
 
@@ -109,11 +111,12 @@ class ProbedMoEDense(layers.MoEDense):
         flat = kernel_matmul(self, x, kernel, "kernel", self.matmul_dtype)
         expert_outputs = flat.reshape(flat.shape[:-1] + (self.num_experts, self.features)) + bias
         expert_outputs = tape_lib.tape_point(self, "output", "identity", expert_outputs,
-                                         layers.LAYER_FUNCTIONS["identity"], True)
+                                         matmul_lib.LAYER_FUNCTIONS["identity"], True)
         y = jnp.einsum("...e,...eo->...o", coefficients, expert_outputs)
         if self.activation == "identity":
             return y
-        return tape_lib.tape_point(self, "activation", self.activation, y, layers.LAYER_FUNCTIONS[self.activation])
+        activation = matmul_lib.LAYER_FUNCTIONS[self.activation]
+        return tape_lib.tape_point(self, "activation", self.activation, y, activation)
 
 
 def probed_generator(spec) -> networks.Generator:

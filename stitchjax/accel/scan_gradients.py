@@ -20,7 +20,7 @@ import jax
 import jax.numpy as jnp
 
 from stitchjax.accel import tape
-from stitchjax.model.layers import MATMUL_DTYPES
+from stitchjax.accel.matmul import MATMUL_DTYPES
 from stitchjax.accel.probes import KERNEL_OUTPUT_TAPES, SHARED_PROBES
 
 __all__ = ["zero_probes", "kernel_gradients", "output_gradients", "add_kernel_gradients", "gradients_after_scan"]

@@ -1,12 +1,13 @@
-"""The generator's layers (flax.linen): ``Dense``, ``LSTMCell``, ``MLP``, ``MoEDense`` (gated experts), on a
-matmul at a chosen operand precision (``model.matmul_dtype``) and with the ELU whose derivative comes from its
-output: two custom derivatives that change what the backward pass keeps, never the values.
+"""The generator's layers (flax.linen): ``Dense``, ``LSTMCell``, ``MLP``, ``MoEDense`` (gated experts), plain
+float32 products ``x @ kernel`` and plain activations.
 
+Each layer forms its products with its ``product`` method and applies its activation with ``activate``, so a
+subclass with the same parameters may change how (``stitchjax.accel.matmul``: bfloat16 operands, the ELU's
+derivative from its output) without changing the values' meaning or the parameter tree.
 Every layer may take its input as a tuple of parts, joined along the last axis.
 """
 from __future__ import annotations
 
-import functools
 from typing import Any
 
 import flax.linen as nn
@@ -15,64 +16,13 @@ import jax.numpy as jnp
 
 from stitchjax.config import CHOICES
 
-__all__ = ["MATMUL_DTYPES", "matmul", "elu", "LAYER_FUNCTIONS", "Dense", "LSTMCell", "MLP", "MoEDense",
-           "orthogonal_blocks", "expert_init"]
+__all__ = ["elu", "LAYER_FUNCTIONS", "Layer", "Dense", "LSTMCell", "MLP", "MoEDense", "orthogonal_blocks",
+           "expert_init"]
 
 
-@jax.custom_jvp
 def elu(x):
-    """ELU (alpha 1), the values of ``nn.elu``; its derivative is formed from the output y (1 where y > 0,
-    else y + 1 = exp(x)), so the backward pass keeps one array per layer instead of x's exponential and two
-    masks (benchmarks/README.md, copies and stacking per step)."""
+    """ELU (alpha 1), the values of ``nn.elu``: x where x > 0, else exp(x) - 1."""
     return jnp.where(x > 0, x, jnp.expm1(jnp.minimum(x, 0)))
-
-
-@elu.defjvp
-def _elu_jvp(primals, tangents):
-    (x,), (dx,) = primals, tangents
-    y = elu(x)
-    return y, dx * jnp.where(y > 0, 1, y + 1).astype(y.dtype)
-
-
-MATMUL_DTYPES = {name: jnp.dtype(name) for name in CHOICES[("model", "matmul_dtype")]}
-
-
-def matmul(x, kernel, dtype: str = "float32"):
-    """x (..., in) @ kernel (in, out) -> float32 (..., out).
-
-    dtype "float32": plain float32 matmul. "bfloat16": both operands rounded to bfloat16, products
-    accumulated in float32, and the same for the two gradient products (output gradient rounded to
-    bfloat16): only the matmuls' operands lose precision; everything between them stays float32.
-    """
-    if dtype not in MATMUL_DTYPES:
-        raise ValueError(f"model.matmul_dtype={dtype!r}: use one of {', '.join(MATMUL_DTYPES)}")
-    if dtype == "float32":
-        return x @ kernel
-    return _low_precision_matmul(x, kernel, dtype)
-
-
-@functools.partial(jax.custom_vjp, nondiff_argnums=(2,))
-def _low_precision_matmul(x, kernel, dtype):
-    return _low_precision_matmul_forward(x, kernel, dtype)[0]
-
-
-def _low_precision_matmul_forward(x, kernel, dtype):
-    low = MATMUL_DTYPES[dtype]
-    x, kernel = x.astype(low), kernel.astype(low)
-    return jnp.matmul(x, kernel, preferred_element_type=jnp.float32), (x, kernel)
-
-
-def _low_precision_matmul_backward(dtype, residuals, dy):
-    # Written out because autodiff of the forward would run both products on float32 operands.
-    x, kernel = residuals
-    dy = dy.astype(x.dtype)
-    dx = jax.lax.dot_general(dy, kernel, (((dy.ndim - 1,), (1,)), ((), ())), preferred_element_type=jnp.float32)
-    leading = tuple(range(x.ndim - 1))
-    dkernel = jax.lax.dot_general(x, dy, ((leading, leading), ((), ())), preferred_element_type=jnp.float32)
-    return dx, dkernel
-
-
-_low_precision_matmul.defvjp(_low_precision_matmul_forward, _low_precision_matmul_backward)
 
 
 _ACTIVATION_FUNCTIONS = {"elu": elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
@@ -91,12 +41,25 @@ def _joined(x):
     return jnp.concatenate(x, axis=-1) if isinstance(x, (tuple, list)) else x
 
 
-class Dense(nn.Module):
+class Layer(nn.Module):
+    """What the layers share: their product and their activation, methods a subclass may replace."""
+
+    def product(self, x, kernel):
+        """x (..., in) @ kernel (in, out) -> float32 (..., out)."""
+        return x @ kernel
+
+    def activate(self, name: str, y):
+        """``LAYER_FUNCTIONS[name]`` applied to y."""
+        return LAYER_FUNCTIONS[name](y)
+
+
+class Dense(Layer):
     """Dense layer x (..., in) -> activation(x @ kernel + bias) (..., features), flax ``nn.Dense``
     initialisation and parameter names; x may be a tuple of parts, joined along the last axis.
 
     activation: a ``model.activation`` name, "identity" or "softmax" (over the features);
-    matmul_dtype: the operands' precision (:func:`matmul`).
+    matmul_dtype: the ``model.matmul_dtype`` setting, read by layers whose ``product`` honours it (the plain
+    product is float32).
     """
 
     features: int
@@ -108,7 +71,7 @@ class Dense(nn.Module):
         x = _joined(x)
         kernel = self.param("kernel", nn.initializers.lecun_normal(), (x.shape[-1], self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.features,))
-        return LAYER_FUNCTIONS[self.activation](matmul(x, kernel, self.matmul_dtype) + bias)
+        return self.activate(self.activation, self.product(x, kernel) + bias)
 
 
 def orthogonal_blocks(key, shape, dtype=jnp.float32):
@@ -118,7 +81,7 @@ def orthogonal_blocks(key, shape, dtype=jnp.float32):
     return jnp.concatenate([nn.initializers.orthogonal()(k, (rows, rows), dtype) for k in keys], axis=1)
 
 
-class LSTMCell(nn.Module):
+class LSTMCell(Layer):
     """LSTM cell with fused gate kernels: carry (c, h) each (..., H), x (..., in) -> (carry, h).
 
     x may be a tuple of parts, joined along the last axis.
@@ -139,7 +102,7 @@ class LSTMCell(nn.Module):
         input_kernel = self.param("input_kernel", nn.initializers.lecun_normal(), (x.shape[-1], 4 * hidden))
         hidden_kernel = self.param("hidden_kernel", orthogonal_blocks, (hidden, 4 * hidden))
         bias = self.param("bias", nn.initializers.zeros, (4 * hidden,))
-        gates = matmul(x, input_kernel, self.matmul_dtype) + matmul(h, hidden_kernel, self.matmul_dtype) + bias
+        gates = self.product(x, input_kernel) + self.product(h, hidden_kernel) + bias
         i, f, g, o = (fn(gate) for fn, gate in zip((jax.nn.sigmoid, jax.nn.sigmoid, jnp.tanh, jax.nn.sigmoid),
                                                   jnp.split(gates, 4, axis=-1)))
         c = f * c + i * g
@@ -172,7 +135,7 @@ expert_init = nn.initializers.variance_scaling(1.0, "fan_in", "truncated_normal"
                                                batch_axis=(1,))
 
 
-class MoEDense(nn.Module):
+class MoEDense(Layer):
     """Dense layer of E experts blended by per-example coefficients, then ``activation``.
 
     x (..., in), coefficients (..., E) -> (..., out) = activation(sum_e c_e (x @ W_e + b_e)). The kernel is
@@ -193,6 +156,6 @@ class MoEDense(nn.Module):
         x = _joined(x)
         kernel = self.param("kernel", expert_init, (x.shape[-1], self.num_experts, self.features))
         bias = self.param("bias", nn.initializers.zeros, (self.num_experts, self.features))
-        flat = matmul(x, kernel.reshape(kernel.shape[0], -1), self.matmul_dtype)
+        flat = self.product(x, kernel.reshape(kernel.shape[0], -1))
         expert_outputs = flat.reshape(flat.shape[:-1] + (self.num_experts, self.features)) + bias
-        return LAYER_FUNCTIONS[self.activation](jnp.einsum("...e,...eo->...o", coefficients, expert_outputs))
+        return self.activate(self.activation, jnp.einsum("...e,...eo->...o", coefficients, expert_outputs))

@@ -14,10 +14,10 @@ Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step:
 The expert blend mixes each layer's expert *outputs* (``einsum`` over the expert axis), never a blended
 weight matrix per example.
 
-The layers are plain flax modules (:mod:`stitchjax.model.layers`: ``Dense``, ``LSTMCell``, ``MoEDense``;
-``model.matmul_dtype`` sets their matmuls' operand precision). The generator takes its layer classes as module
-attributes (``dense``, ``lstm_cell``, ``moe_dense``), as flax's ResNet takes ``conv``, so layers with the same
-parameters may stand in for them.
+The layers are plain flax modules (:mod:`stitchjax.model.layers`: ``Dense``, ``LSTMCell``, ``MoEDense``).
+The generator takes its layer classes as module attributes (``dense``, ``lstm_cell``, ``moe_dense``; chosen
+by ``GeneratorSpec.layers``), as flax's ResNet takes ``conv``, so layers with the same parameters may stand in
+for them.
 
 Discriminators (RMIB style): a temporal convolution whose kernel spans the whole window (2 or 10 frames)
 over per-frame features, then dense layers; one score per window position.
@@ -78,6 +78,8 @@ class GeneratorSpec:
     encoder_widths, decoder_widths, gating_widths, num_experts: layer sizes; activation, matmul_dtype;
     switches of ``config.model``: latent_interpolation (Eq. 1), variance_blend, posterior, decoder_uses_lstm,
     z_every_layer, phase_modulation, time_to_target_input (one more offset input).
+    layers: the generator's (dense, lstm_cell, moe_dense) layer classes (:class:`Generator`; () = the plain
+    ones of :mod:`stitchjax.model.layers`), the choice of whoever runs the model.
     """
 
     num_joints: int
@@ -97,6 +99,7 @@ class GeneratorSpec:
     z_every_layer: bool
     phase_modulation: bool
     time_to_target_input: bool
+    layers: tuple = ()
 
 
 def generator_spec(config) -> GeneratorSpec:
@@ -323,8 +326,8 @@ def generator_input_dims(spec) -> dict:
 
 
 def make_generator(spec) -> Generator:
-    """The generator of a :class:`GeneratorSpec`."""
-    return Generator(spec)
+    """The generator of a :class:`GeneratorSpec`, on its ``layers``."""
+    return Generator(spec, *spec.layers)
 
 
 def make_discriminator(spec, which: str) -> Discriminator:

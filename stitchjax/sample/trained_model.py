@@ -30,6 +30,7 @@ import jax
 import numpy as np
 
 from stitchjax import checkpoints, parallel
+from stitchjax.accel import matmul as accel_matmul
 from stitchjax.data import conform, datasets, features, phase
 from stitchjax.model import networks
 from stitchjax import RELEASE_MODEL
@@ -103,8 +104,9 @@ class Model:
 
     @functools.cached_property
     def rollout_spec(self) -> rollout_lib.RolloutSpec:
-        """The rollout's spec (sizes, switches, L's scan, K, the gamma schedule), resolved once from ``config``."""
-        return rollout_lib.rollout_spec(self.config)
+        """The rollout's spec (sizes, switches, L's scan, K, the gamma schedule), resolved once from ``config``;
+        the generator runs on ``accel.matmul``'s layers (``model.matmul_dtype``'s matmul)."""
+        return accel_matmul.with_layers(rollout_lib.rollout_spec(self.config))
 
     @property
     def parents(self) -> tuple:
@@ -414,7 +416,7 @@ def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None
 
 def with_matmul_dtype(model: Model, dtype: str) -> Model:
     """The same model computing its matmuls on ``dtype`` operands ("float32" or "bfloat16", float32
-    accumulation either way; see ``model.layers.matmul``). Parameters are unchanged, so a float32-trained
+    accumulation either way; see ``accel.matmul.matmul``). Parameters are unchanged, so a float32-trained
     model can sample in bfloat16: ~1.8x faster on CPUs with AMX / AVX512-BF16 (benchmarks/README.md); with
     the same seed, joint positions move by ~0.2 cm on average (up to ~1 cm mid-transition)."""
     try:

@@ -18,7 +18,8 @@ Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `tr
   rollout per generator (inside `objective.generator_loss`), and updates both generators and both
   discriminators with separate AdamW optimisers. `length` (the transition length) is a traced int32, so
   the progressive schedule never recompiles. The train step alone chooses the fast paths of `config.train`
-  (`stitchjax.accel.fast_rollout`); the model's rollout runs the plain model.
+  (`stitchjax.accel.fast_rollout`) and, through `specs.train_spec`, accel's generator layers
+  (`stitchjax.accel.matmul`); the model's rollout runs the plain model.
 - `schedule.transition_length(step, steps_per_epoch, train_config)`: the progressive length (stitchjax.train.schedule).
 - `train(config, workdir, ...)`: `resume.restore_or_init` (resume from the newest good checkpoint, start from
   another run with `init_from`, or pretrain the phase network and initialise), `runner.run_loop` (progress bar,

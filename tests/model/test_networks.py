@@ -1,4 +1,6 @@
 """Networks: shapes, the expert blend, latent interpolation, ablation structure."""
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -7,6 +9,7 @@ import pytest
 from stitchjax import config as C
 from stitchjax.model import layers
 from stitchjax.model import networks as N
+from stitchjax.accel import matmul as accel_matmul
 from stitchjax.accel import probes
 from stitchjax.accel import tape
 
@@ -165,7 +168,7 @@ def test_tape_point_records_then_replays_with_the_derivative_and_the_output_grad
 
 @pytest.mark.parametrize("kind", ["elu", "relu", "leaky_relu", "sigmoid", "tanh", "softmax"])
 def test_tape_derivatives_match_autodiff(kind):
-    fns = {"elu": layers.elu, "relu": jax.nn.relu, "leaky_relu": lambda v: jax.nn.leaky_relu(v, 0.2),
+    fns = {"elu": accel_matmul.elu, "relu": jax.nn.relu, "leaky_relu": lambda v: jax.nn.leaky_relu(v, 0.2),
            "sigmoid": jax.nn.sigmoid, "tanh": jnp.tanh, "softmax": lambda v: jax.nn.softmax(v, axis=-1)}
     x = jax.random.normal(jax.random.PRNGKey(2), (5, 7)) * 2.0
     dy = jax.random.normal(jax.random.PRNGKey(3), (5, 7))
@@ -177,13 +180,13 @@ def test_bfloat16_matmul_rounds_only_the_operands_forward_and_backward():
     x = jax.random.normal(jax.random.PRNGKey(1), (2, 5, 48))
     kernel = jax.random.normal(jax.random.PRNGKey(2), (48, 24))
     as_bf16 = lambda a: np.asarray(jnp.asarray(a).astype(jnp.bfloat16).astype(jnp.float32), np.float64)  # noqa: E731
-    y = layers.matmul(x, kernel, "bfloat16")
+    y = accel_matmul.matmul(x, kernel, "bfloat16")
     assert y.dtype == jnp.float32
     np.testing.assert_allclose(y, as_bf16(x) @ as_bf16(kernel), rtol=1e-5, atol=1e-4)
-    assert np.abs(np.asarray(y) - np.asarray(layers.matmul(x, kernel))).max() > 1e-3  # really rounded
+    assert np.abs(np.asarray(y) - np.asarray(accel_matmul.matmul(x, kernel))).max() > 1e-3  # really rounded
 
     def loss(x, kernel, dtype):
-        return jnp.sum(jnp.sin(layers.matmul(x, kernel, dtype)))
+        return jnp.sum(jnp.sin(accel_matmul.matmul(x, kernel, dtype)))
 
     dx, dkernel = jax.grad(loss, argnums=(0, 1))(x, kernel, "bfloat16")
     assert dx.dtype == jnp.float32 and dkernel.dtype == jnp.float32
@@ -195,7 +198,7 @@ def test_bfloat16_matmul_rounds_only_the_operands_forward_and_backward():
     dx32, dkernel32 = jax.grad(loss, argnums=(0, 1))(x, kernel, "float32")
     np.testing.assert_allclose(dkernel, dkernel32, atol=0.05 * float(np.abs(dkernel32).max()))
     with pytest.raises(ValueError, match="matmul_dtype='float16'"):
-        layers.matmul(x, kernel, "float16")
+        accel_matmul.matmul(x, kernel, "float16")
 
 
 def test_generator_matmul_dtype_keeps_parameters_and_changes_outputs_slightly():
@@ -213,8 +216,11 @@ def test_generator_matmul_dtype_keeps_parameters_and_changes_outputs_slightly():
     carry = jax.tree.map(lambda z: jnp.zeros((3,) + z.shape), N.initial_carry(N.generator_spec(config)))
     args = (carry, *inputs, jnp.full((3,), 0.5), jnp.asarray(rng.normal(size=(3, dims["phase"])), jnp.float32),
             jnp.asarray(rng.normal(size=(3, dims["eps"])), jnp.float32))
-    _, out = jax.vmap(lambda *a: N.make_generator(N.generator_spec(config)).apply(params["forward"], *a))(*args)
-    _, out_low = jax.vmap(lambda *a: N.make_generator(N.generator_spec(low)).apply(params["forward"], *a))(*args)
+    def generator(c):  # on accel's layers, which honour model.matmul_dtype
+        return N.make_generator(dataclasses.replace(N.generator_spec(c), layers=accel_matmul.LAYERS))
+
+    _, out = jax.vmap(lambda *a: generator(config).apply(params["forward"], *a))(*args)
+    _, out_low = jax.vmap(lambda *a: generator(low).apply(params["forward"], *a))(*args)
     for key in ("rotation_update", "mu"):
         assert out_low[key].dtype == jnp.float32
         difference = np.abs(np.asarray(out_low[key]) - np.asarray(out[key]))
@@ -225,14 +231,15 @@ def test_elu_has_flax_values_and_gradients_formed_from_its_output():
     import flax.linen as nn
 
     x = jnp.concatenate([jnp.linspace(-8.0, 8.0, 101), jnp.zeros(1)])
-    np.testing.assert_array_equal(layers.elu(x), nn.elu(x))
-    ours = jax.grad(lambda v: jnp.sum(jnp.sin(layers.elu(v))))(x)
+    np.testing.assert_array_equal(layers.elu(x), nn.elu(x))  # the model's plain ELU
+    np.testing.assert_array_equal(accel_matmul.elu(x), nn.elu(x))
+    ours = jax.grad(lambda v: jnp.sum(jnp.sin(accel_matmul.elu(v))))(x)
     flax_ = jax.grad(lambda v: jnp.sum(jnp.sin(nn.elu(v))))(x)
     np.testing.assert_allclose(ours, flax_, rtol=1e-6, atol=1e-7)
-    slopes = jax.vmap(jax.grad(layers.elu))(x)  # 1 for x >= 0 here (x = 0 included, as nn.elu), exp(x) below
+    slopes = jax.vmap(jax.grad(accel_matmul.elu))(x)  # 1 for x >= 0 here (x = 0 included, as nn.elu), exp(x) below
     np.testing.assert_allclose(slopes, np.where(np.asarray(x) > 0, 1.0, np.exp(np.asarray(x))), rtol=1e-6,
                                atol=1e-7)  # y + 1 for y near -1: absolute rounding of float32
-    np.testing.assert_allclose(jax.jvp(layers.elu, (x,), (jnp.ones_like(x),))[1], slopes, rtol=1e-6)  # forward mode
+    np.testing.assert_allclose(jax.jvp(accel_matmul.elu, (x,), (jnp.ones_like(x),))[1], slopes, rtol=1e-6)  # forward mode
 
 
 @pytest.mark.parametrize("extra", [(), ("model.phase_modulation=false",), ("model.matmul_dtype=bfloat16",)])
@@ -244,7 +251,8 @@ def test_probed_generator_has_the_plain_generators_parameters_and_values(extra):
     args = (N.initial_carry(spec),) + tuple(
         jax.random.normal(jax.random.PRNGKey(i), (dims[k],)) for i, k in enumerate(("state", "target", "offset")))
     args += (jnp.float32(0.3), jnp.ones((dims["phase"],)), jnp.ones((dims["eps"],)), args[1] * 0.5)
-    plain, probed = N.make_generator(spec), probes.probed_generator(spec)
+    plain = N.make_generator(dataclasses.replace(spec, layers=accel_matmul.LAYERS))
+    probed = probes.probed_generator(spec)
     params = plain.init(jax.random.PRNGKey(0), *args)
     probed_params = probed.init(jax.random.PRNGKey(0), *args)
     assert jax.tree.structure(params) == jax.tree.structure(probed_params)
