@@ -326,7 +326,12 @@ def generator_input_dims(spec) -> dict:
 
 
 def make_generator(spec) -> Generator:
-    """The generator of a :class:`GeneratorSpec`, on its ``layers``."""
+    """The generator of a :class:`GeneratorSpec`, on its ``layers``. The plain layers compute in float32 only:
+    ``matmul_dtype`` "bfloat16" needs accel's layers (``stitchjax.accel.matmul.with_layers``), which the train
+    step and the model loader put in the spec; without them it is refused, never silently run in float32."""
+    if spec.matmul_dtype != "float32" and not spec.layers:
+        raise ValueError(f"model.matmul_dtype={spec.matmul_dtype!r} needs the layers of stitchjax.accel.matmul "
+                         "(GeneratorSpec.layers; accel.matmul.with_layers(rollout_spec) sets them)")
     return Generator(spec, *spec.layers)
 
 
@@ -348,7 +353,7 @@ def init_params(spec: ModelSpec, key) -> dict:
     """
     g, d = spec.generator, spec.discriminators
     dims = generator_input_dims(g)
-    generator = make_generator(g)
+    generator = make_generator(dataclasses.replace(g, matmul_dtype="float32"))  # the same parameters at any dtype
     dummy = {name: jnp.zeros((size,), jnp.float32) for name, size in dims.items()}
 
     def init_generator(k):

@@ -261,3 +261,14 @@ def test_probed_generator_has_the_plain_generators_parameters_and_values(extra):
     for a, b in zip(jax.tree.leaves(jax.jit(plain.apply)(params, *args)),
                     jax.tree.leaves(jax.jit(probed.apply)(params, *args))):
         np.testing.assert_array_equal(a, b)
+
+
+def test_bfloat16_generator_needs_accel_layers_and_init_does_not():
+    config = C.apply_overrides(C.load_config("tiny"), ["model.matmul_dtype=bfloat16"])
+    spec = N.generator_spec(config)
+    with pytest.raises(ValueError, match="accel.matmul"):
+        N.make_generator(spec)  # the plain layers would silently compute in float32
+    assert isinstance(N.make_generator(dataclasses.replace(spec, layers=accel_matmul.LAYERS)), N.Generator)
+    fresh = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    plain = N.init_params(N.model_spec(C.load_config("tiny")), jax.random.PRNGKey(0))
+    assert jax.tree.all(jax.tree.map(lambda a, b: bool(jnp.array_equal(a, b)), fresh, plain))
