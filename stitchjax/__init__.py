@@ -5,7 +5,7 @@ shared modules at the top (rotations, skeleton, config, specs, checkpoints, para
 
     data/ (BVH, windows, features) -> model/ (networks, rollout, losses, objective) -> sample/ (inbetween, takes,
     footlock) -> eval/ (metrics, protocols, figures) -> train/ (step, loop, schedule, resume)
-    accel/: speed machinery beside the model (the training step opts in; the model never imports it)
+    accel/: speed machinery beside the model (the train step and the model loader opt in; the model never imports it)
 
 README.md ("What is where") gives each module's one job.
 
