@@ -20,9 +20,15 @@ declare -A ROWS=(
   [recipe]="--config lafan1_cpu_release"
   [recipe_posterior_none]="--config lafan1_cpu_release model.posterior=none"
   [recipe_no_foot_terms]="--config lafan1_cpu_release loss.foot_skate_weight=0 loss.foot_velocity_weight=0"
-  [recipe_paper_kl]="--config lafan1_cpu_release loss.kl_weight=1.0 loss.free_bits=0 loss.kl_warmup_steps=0 loss.prior_sample_fraction=0"
+  # one extension of the recipe back to the paper's value at a time
+  [recipe_paper_kl]="--config lafan1_cpu_release loss.kl_weight=1.0 loss.free_bits=0 loss.kl_warmup_steps=0"
+  [recipe_no_prior_samples]="--config lafan1_cpu_release loss.prior_sample_fraction=0"
+  [recipe_no_foot_velocity]="--config lafan1_cpu_release loss.foot_velocity_weight=0"
+  [recipe_no_foot_skate]="--config lafan1_cpu_release loss.foot_skate_weight=0"
+  [recipe_no_contact_gradient]="--config lafan1_cpu_release model.contact_input_gradient=false"
 )
-ORDER=(paper extra extra_starts extra_starts_mirror recipe recipe_posterior_none recipe_no_foot_terms recipe_paper_kl)
+ORDER=(paper extra extra_starts extra_starts_mirror recipe recipe_posterior_none recipe_no_foot_terms recipe_paper_kl
+       recipe_no_prior_samples recipe_no_foot_velocity recipe_no_foot_skate recipe_no_contact_gradient)
 [ $# -gt 0 ] && ORDER=("$@")
 for row in "${ORDER[@]}"; do
   out=$HERE/$row.json
