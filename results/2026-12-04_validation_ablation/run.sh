@@ -9,28 +9,26 @@ HERE=results/2026-12-04_validation_ablation
 DATA=${DATA:?set DATA to the LAFAN1 folder}
 RUNS=${RUNS:?set RUNS to a folder for the runs}
 STEPS=${STEPS:-5000}
-# The first release recipe decays its learning rate from step 8000 on, so its first STEPS (<= 8000) steps are a constant
+# lafan1_cpu_release decays its learning rate from step 8000 on, so its first STEPS (<= 8000) steps are a constant
 # learning rate as in the lafan1_cpu rows; the "recipe" row is therefore the release run's own checkpoint STEPS.
 EXTRA="data.extra_train_dirs=../lafan1_filtered60"
-# the recipe these rows ablate: the first release recipe, pinned (configs/lafan1_cpu_release is now recipe_next)
-V1=results/2026-12-04_release_recipe/lafan1_cpu_release_v1.py
 declare -A ROWS=(
   [paper]="--config lafan1_cpu"
   [extra]="--config lafan1_cpu $EXTRA"
   [extra_starts]="--config lafan1_cpu $EXTRA data.random_starts=true"
   [extra_starts_mirror]="--config lafan1_cpu $EXTRA data.random_starts=true data.mirror=true"
-  [recipe]="--config $V1"
-  [recipe_posterior_none]="--config $V1 model.posterior=none"
-  [recipe_no_foot_terms]="--config $V1 loss.foot_skate_weight=0 loss.foot_velocity_weight=0"
+  [recipe]="--config lafan1_cpu_release"
+  [recipe_posterior_none]="--config lafan1_cpu_release model.posterior=none"
+  [recipe_no_foot_terms]="--config lafan1_cpu_release loss.foot_skate_weight=0 loss.foot_velocity_weight=0"
   # one extension of the recipe back to the paper's value at a time
-  [recipe_paper_kl]="--config $V1 loss.kl_weight=1.0 loss.free_bits=0 loss.kl_warmup_steps=0"
-  [recipe_no_prior_samples]="--config $V1 loss.prior_sample_fraction=0"
-  [recipe_no_foot_velocity]="--config $V1 loss.foot_velocity_weight=0"
-  [recipe_no_foot_skate]="--config $V1 loss.foot_skate_weight=0"
-  [recipe_no_contact_gradient]="--config $V1 model.contact_input_gradient=false"
+  [recipe_paper_kl]="--config lafan1_cpu_release loss.kl_weight=1.0 loss.free_bits=0 loss.kl_warmup_steps=0"
+  [recipe_no_prior_samples]="--config lafan1_cpu_release loss.prior_sample_fraction=0"
+  [recipe_no_foot_velocity]="--config lafan1_cpu_release loss.foot_velocity_weight=0"
+  [recipe_no_foot_skate]="--config lafan1_cpu_release loss.foot_skate_weight=0"
+  [recipe_no_contact_gradient]="--config lafan1_cpu_release model.contact_input_gradient=false"
   # the two that won, together (the next recipe), and the foot-skate row again from a second seed
-  [recipe_next]="--config $V1 loss.foot_skate_weight=0 model.contact_input_gradient=false"
-  [recipe_no_foot_skate_seed1]="--config $V1 loss.foot_skate_weight=0 train.seed=1"
+  [recipe_next]="--config lafan1_cpu_release loss.foot_skate_weight=0 model.contact_input_gradient=false"
+  [recipe_no_foot_skate_seed1]="--config lafan1_cpu_release loss.foot_skate_weight=0 train.seed=1"
 )
 ORDER=(paper extra extra_starts extra_starts_mirror recipe recipe_posterior_none recipe_no_foot_terms recipe_paper_kl
        recipe_no_prior_samples recipe_no_foot_velocity recipe_no_foot_skate recipe_no_contact_gradient

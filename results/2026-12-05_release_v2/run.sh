@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
-# The second release recipe (configs/lafan1_cpu_release: the first without the foot-skate term and contact
-# gradients) from one command, then everything measured of it. Stages (each resumable: a finished output is kept):
-#   train      bin/train --config lafan1_cpu_release (20000 steps from scratch)
+# The second release recipe (lafan1_cpu_release_v2.py here: the release recipe without the foot-skate term and
+# contact gradients) from one command, then everything measured of it. Stages (each resumable: a finished output is kept):
+#   train      bin/train --config $HERE/lafan1_cpu_release_v2.py (20000 steps from scratch)
 #   curve      the run's validation curve (summary_validation.json, validation_curve.png)
 #   export     the float16 model folder, precision-checked, into $RUNS/release_v2_model (a candidate)
 #   validation the validation split at the paper's sampling, and the sampling grid the default is chosen on
 #   choose     the default sampling (the first recipe's choose_sampling.py, same margin), exported into the candidate
 #   compare    compare.py: does the candidate replace the first release model? (validation figures only)
-#   test       the subject5 test table of the candidate: paper sampling at L = 10, 30, 50 and 5, 15, 45, the
+#   test       the subject5 test table of the candidate: paper sampling at L = 10, 30, 50 (with and without foot
+#              locking) and 5, 15, 45, the
 #              default sampling at L = 10, 30, 50 (read only after every choice above)
 #   release    copy the candidate into stitchjax/pretrained/lafan1_cpu_release when compare said so
 #   DATA=/path/to/lafan1 RUNS=/path/to/runs bash results/2026-12-05_release_v2/run.sh [STAGE ...]
@@ -35,7 +36,7 @@ PY
 }
 for stage in "${STAGES[@]}"; do case $stage in
 train)
-  timed train bin/train --config lafan1_cpu_release --workdir "$RUN" --data "$DATA" --no-progress ;;
+  timed train bin/train --config $HERE/lafan1_cpu_release_v2.py --workdir "$RUN" --data "$DATA" --no-progress ;;
 curve)
   python results/2026-12-04_release_run/summarise.py --metrics "$RUN/metrics.jsonl" \
       --evaluation $HERE/validation_paper.json --out $HERE/summary_validation.json > /dev/null
@@ -62,7 +63,7 @@ compare)
 test)
   read -r S R K < <(python -c "import json; c=json.load(open('$MODEL/model.json'))['sampling']; print(c['noise_scale'], c['noise_correlation'], c['noise_ramp_steps'])")
   [ -f $HERE/test_paper_L10_30_50.json ] || timed test_paper bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
-      --samples 10 --lengths 10,30,50 --noise-scales '' --json $HERE/test_paper_L10_30_50.json
+      --samples 10 --lengths 10,30,50 --noise-scales '' --foot-lock both --json $HERE/test_paper_L10_30_50.json
   [ -f $HERE/test_default_L10_30_50.json ] || timed test_default bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
       --samples 10 --lengths 10,30,50 --noise-scales "$S" --noise-correlation "$R" --noise-ramp "$K" \
       --json $HERE/test_default_L10_30_50.json
