@@ -29,10 +29,12 @@ declare -A ROWS=(
   # the two that won, together (the next recipe), and the foot-skate row again from a second seed
   [recipe_next]="--config lafan1_cpu_release loss.foot_skate_weight=0 model.contact_input_gradient=false"
   [recipe_no_foot_skate_seed1]="--config lafan1_cpu_release loss.foot_skate_weight=0 train.seed=1"
+  # the recipe itself from a second seed: how far seed noise moves the row every other row is compared with
+  [recipe_seed1]="--config lafan1_cpu_release train.seed=1"
 )
 ORDER=(paper extra extra_starts extra_starts_mirror recipe recipe_posterior_none recipe_no_foot_terms recipe_paper_kl
        recipe_no_prior_samples recipe_no_foot_velocity recipe_no_foot_skate recipe_no_contact_gradient
-       recipe_next recipe_no_foot_skate_seed1)
+       recipe_next recipe_no_foot_skate_seed1 recipe_seed1)
 [ $# -gt 0 ] && ORDER=("$@")
 for row in "${ORDER[@]}"; do
   out=$HERE/$row.json
