@@ -1,22 +1,30 @@
 #!/usr/bin/env bash
 # The release model from one command, then everything measured of it. Stages (each resumable: a finished
 # output is kept):
-#   train      bin/train --config lafan1_cpu_release (20000 steps from scratch)
-#   export     the float16 release folder, precision-checked
-#   validation the validation split at the paper's sampling, and the sampling grid the default is chosen on
-#   choose     the default sampling (choose_sampling.py), exported into model.json
-#   test       the subject5 test table: paper sampling at L = 10, 30, 50 (diversity protocol) and 5, 15, 45
-#              (official protocol), the default sampling at L = 10, 30, 50
+#   train        bin/train --config lafan1_cpu_release (20000 steps from scratch)
+#   export       the float16 release folder, precision-checked
+#   validation   the validation split at the paper's sampling
+#   curve        the run's validation curve (summary_validation.json, validation_curve.png)
+#   grid         the sampling grid on the validation split that the default is chosen on
+#   choose       the default sampling (choose_sampling.py), exported into model.json
+#   test         the subject5 test table at the paper's sampling: L = 10, 30, 50 (diversity protocol) and 5, 15,
+#                45 (official protocol)
+#   test_default the subject5 test table at the default sampling, L = 10, 30, 50
 #   DATA=/path/to/lafan1 RUNS=/path/to/runs bash results/2026-12-04_release_recipe/run.sh [STAGE ...]
+# Another recipe's study reuses the stages with OUT (its folder), CONFIG, RUN, MODEL and FOOT_LOCK (--foot-lock of
+# the test stage's L = 10, 30, 50 run) set; results/2026-12-05_release_v2/run.sh does.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 HERE=results/2026-12-04_release_recipe
+OUT=${OUT:-$HERE}
 DATA=${DATA:?set DATA to the LAFAN1 folder}
 RUNS=${RUNS:?set RUNS to a folder for the run}
-RUN=$RUNS/release20k
-MODEL=stitchjax/pretrained/lafan1_cpu_release
-STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(train export validation choose test)
-log() { echo "$(date -u +%FT%T) $*" | tee -a "$HERE/log.txt"; }
+CONFIG=${CONFIG:-lafan1_cpu_release}
+RUN=${RUN:-$RUNS/release20k}
+MODEL=${MODEL:-stitchjax/pretrained/lafan1_cpu_release}
+FOOT_LOCK=${FOOT_LOCK:-off}
+STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(train export validation curve grid choose test test_default)
+log() { echo "$(date -u +%FT%T) $*" | tee -a "$OUT/log.txt"; }
 timed() {  # timed NAME COMMAND...: run, log the command and its wall time
   local name=$1; shift; local start; start=$(date +%s)
   "$@"; log "$name: $(( $(date +%s) - start )) s: $*"
@@ -31,32 +39,38 @@ PY
 }
 for stage in "${STAGES[@]}"; do case $stage in
 train)
-  timed train bin/train --config lafan1_cpu_release --workdir "$RUN" --data "$DATA" --no-progress ;;
+  timed train bin/train --config "$CONFIG" --workdir "$RUN" --data "$DATA" --no-progress ;;
 export)
   timed export bin/export --run "$RUN" --out "$MODEL" --check-data "$DATA" ;;
 validation)
-  [ -f $HERE/validation_paper.json ] || timed validation_paper bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
-      --split validation --samples 10 --lengths 30,50 --noise-scales '' --json $HERE/validation_paper.json
+  [ -f $OUT/validation_paper.json ] || timed validation_paper bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
+      --split validation --samples 10 --lengths 30,50 --noise-scales '' --json $OUT/validation_paper.json ;;
+curve)
+  python results/2026-12-04_release_run/summarise.py --metrics "$RUN/metrics.jsonl" \
+      --evaluation $OUT/validation_paper.json --out $OUT/summary_validation.json > /dev/null
+  python $HERE/curve_figure.py $OUT/summary_validation.json $OUT/validation_curve.png ;;
+grid)
   for setting in "0 0" "0.9 0" "0.95 0" "0.95 4" "0.98 4"; do
-    set -- $setting; out=$HERE/grid_rho$1_ramp$2.json
+    set -- $setting; out=$OUT/grid_rho$1_ramp$2.json
     [ -f "$out" ] && continue
     timed "grid rho $1 ramp $2" bin/evaluate model --checkpoint "$MODEL" --data "$DATA" --split validation --samples 10 \
         --lengths 30,50 --noise-correlation "$1" --noise-ramp "$2" --noise-scales 1.5,2,2.5,3 --json "$out"
     with_sampling "$out" "$1" "$2"
   done ;;
 choose)
-  python $HERE/choose_sampling.py $HERE/grid_rho*_ramp*.json --out $HERE/sampling_choice.json | tee $HERE/sampling_choice.txt
-  read -r S R K < <(python -c "import json; c=json.load(open('$HERE/sampling_choice.json'))['chosen']; print(c['noise_scale'], c['noise_correlation'], c['noise_ramp_steps'])")
+  python $HERE/choose_sampling.py $OUT/grid_rho*_ramp*.json --out $OUT/sampling_choice.json | tee $OUT/sampling_choice.txt
+  read -r S R K < <(python -c "import json; c=json.load(open('$OUT/sampling_choice.json'))['chosen']; print(c['noise_scale'], c['noise_correlation'], c['noise_ramp_steps'])")
   timed export_sampling bin/export --run "$RUN" --out "$MODEL" --check-data "$DATA" --sampling "$S,$R,$K" \
-      --sampling-note "chosen on the validation split: results/2026-12-04_release_recipe/sampling_choice.json" ;;
+      --sampling-note "chosen on the validation split: $OUT/sampling_choice.json" ;;
 test)
+  [ -f $OUT/test_paper_L10_30_50.json ] || timed test_paper bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
+      --samples 10 --lengths 10,30,50 --noise-scales '' --foot-lock "$FOOT_LOCK" --json $OUT/test_paper_L10_30_50.json
+  [ -f $OUT/test_official_L5_15_45.json ] || timed test_official bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
+      --samples 10 --lengths 5,15,45 --noise-scales '' --json $OUT/test_official_L5_15_45.json ;;
+test_default)
   read -r S R K < <(python -c "import json; c=json.load(open('$MODEL/model.json'))['sampling']; print(c['noise_scale'], c['noise_correlation'], c['noise_ramp_steps'])")
-  [ -f $HERE/test_paper_L10_30_50.json ] || timed test_paper bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
-      --samples 10 --lengths 10,30,50 --noise-scales '' --json $HERE/test_paper_L10_30_50.json
-  [ -f $HERE/test_default_L10_30_50.json ] || timed test_default bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
+  [ -f $OUT/test_default_L10_30_50.json ] || timed test_default bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
       --samples 10 --lengths 10,30,50 --noise-scales "$S" --noise-correlation "$R" --noise-ramp "$K" \
-      --json $HERE/test_default_L10_30_50.json
-  [ -f $HERE/test_official_L5_15_45.json ] || timed test_official bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
-      --samples 10 --lengths 5,15,45 --noise-scales '' --json $HERE/test_official_L5_15_45.json ;;
+      --json $OUT/test_default_L10_30_50.json ;;
 *) echo "unknown stage $stage"; exit 2 ;;
 esac; done
