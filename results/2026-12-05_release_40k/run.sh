@@ -2,28 +2,45 @@
 # The release recipe at 40000 steps (lafan1_cpu_release_40k.py here) from one command, then what was measured
 # of it. The stages train, export, validation, curve, grid, choose, test and test_default are the release
 # recipe's (results/2026-12-04_release_recipe/run.sh), writing here; the test stage scores L = 10, 30, 50 with
-# and without foot locking. Two stages are this study's own:
+# and without foot locking. This study's own stages:
 #   compare  results/2026-12-05_release_v2/compare.py: does it replace the release model? (the same rule as the
 #            second recipe's, validation figures only)
-#   release  copy the candidate into stitchjax/pretrained/lafan1_cpu_release when compare said so
+#   grid     the sampling grid on the validation split, one family (noise correlation 0.95, ramp 4)
+#   release  export it into stitchjax/pretrained/lafan1_cpu_release, named lafan1_cpu_release (the config it
+#            equals), with the default sampling the choose stage picked
+#   picture  the README picture and its spread (picture.py)
+# grid, choose, test_default, release and picture run only when compare said replace.
 #   DATA=/path/to/lafan1 RUNS=/path/to/runs bash results/2026-12-05_release_40k/run.sh [STAGE ...]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 HERE=results/2026-12-05_release_40k
 RUNS=${RUNS:?set RUNS to a folder for the run}
 export OUT=$HERE CONFIG=$HERE/lafan1_cpu_release_40k.py RUN=$RUNS/release_40k MODEL=$RUNS/release_40k_model FOOT_LOCK=both
-STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(train export validation curve compare test)
+STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(train export validation curve compare test grid choose test_default release picture)
 log() { echo "$(date -u +%FT%T) $*" | tee -a "$HERE/log.txt"; }
-for stage in "${STAGES[@]}"; do case $stage in
+replace() { python -c "import json, sys; sys.exit(0 if json.load(open('$HERE/decision.json'))['replace'] else 1)"; }
+for stage in "${STAGES[@]}"; do
+case $stage in grid|choose|test_default|release|picture)
+  replace || { log "$stage: skipped, the release model stays (decision.json)"; continue; } ;; esac
+case $stage in
 compare)
   python results/2026-12-05_release_v2/compare.py results/2026-12-04_release_recipe/validation_paper.json \
       $HERE/validation_paper.json --out $HERE/decision.json ;;
-release)
-  if python -c "import json, sys; sys.exit(0 if json.load(open('$HERE/decision.json'))['replace'] else 1)"; then
-    cp "$MODEL/model.json" "$MODEL/params.msgpack" stitchjax/pretrained/lafan1_cpu_release/
-    log "release: $MODEL copied into stitchjax/pretrained/lafan1_cpu_release"
-  else
-    log "release: the release model stays (decision.json)"
+grid)
+  out=$HERE/grid_rho0.95_ramp4.json
+  if [ ! -f $out ]; then
+    start=$(date +%s)
+    bin/evaluate model --checkpoint "$MODEL" --data "$DATA" --split validation --samples 10 --lengths 30,50 \
+        --noise-correlation 0.95 --noise-ramp 4 --noise-scales 1.5,2,2.5,3 --json $out
+    python -c "import json; d=json.load(open('$out')); d['sampling']={'noise_correlation': 0.95, 'noise_ramp_steps': 4}; json.dump(d, open('$out', 'w'), indent=1)"
+    log "grid rho 0.95 ramp 4: $(( $(date +%s) - start )) s: bin/evaluate model --checkpoint $MODEL --split validation --samples 10 --lengths 30,50 --noise-correlation 0.95 --noise-ramp 4 --noise-scales 1.5,2,2.5,3"
   fi ;;
+release)
+  read -r S R K < <(python -c "import json; c=json.load(open('$MODEL/model.json'))['sampling']; print(c['noise_scale'], c['noise_correlation'], c['noise_ramp_steps'])")
+  bin/export --run "$RUN" --out stitchjax/pretrained/lafan1_cpu_release --check-data "$DATA" --config-name lafan1_cpu_release \
+      --sampling "$S,$R,$K" --sampling-note "chosen on the validation split: $HERE/sampling_choice.json"
+  log "release: bin/export --run $RUN --out stitchjax/pretrained/lafan1_cpu_release --config-name lafan1_cpu_release --sampling $S,$R,$K" ;;
+picture)
+  python $HERE/picture.py --out $HERE/picture_spread.json --figure docs/images/samples.png ;;
 *) bash results/2026-12-04_release_recipe/run.sh "$stage" ;;
 esac; done
