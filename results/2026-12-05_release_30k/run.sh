@@ -5,7 +5,8 @@
 # and without foot locking. This study's own stages:
 #   compare  results/2026-12-05_release_v2/compare.py: does it replace the release model? (the same rule as the
 #            second recipe's, validation figures only)
-#   grid     the sampling grid on the validation split, one family (noise correlation 0.95, ramp 4)
+#   grid     the sampling grid on the validation split, one family (noise correlation 0.95, ramp 4), and the
+#            paper's sampling (validation_paper.json) as a candidate
 #   release  export it into stitchjax/pretrained/lafan1_cpu_release, named lafan1_cpu_release (the config it
 #            equals), with the default sampling the choose stage picked
 #   picture  the README picture and its spread (picture.py)
@@ -34,7 +35,10 @@ grid)
         --noise-correlation 0.95 --noise-ramp 4 --noise-scales 1.5,2,2.5,3 --json $out
     python -c "import json; d=json.load(open('$out')); d['sampling']={'noise_correlation': 0.95, 'noise_ramp_steps': 4}; json.dump(d, open('$out', 'w'), indent=1)"
     log "grid rho 0.95 ramp 4: $(( $(date +%s) - start )) s: bin/evaluate model --checkpoint $MODEL --split validation --samples 10 --lengths 30,50 --noise-correlation 0.95 --noise-ramp 4 --noise-scales 1.5,2,2.5,3"
-  fi ;;
+  fi
+  # the paper's sampling is a candidate too (in the release recipe's grid it was the x1 row of "rho 0, ramp 0"),
+  # and choose_sampling.py's fallback rule compares foot slide with it
+  python -c "import json; d=json.load(open('$HERE/validation_paper.json')); d['sampling']={'noise_correlation': 0.0, 'noise_ramp_steps': 0}; json.dump(d, open('$HERE/grid_rho0_ramp0_paper_only.json', 'w'), indent=1)" ;;
 release)
   read -r S R K < <(python -c "import json; c=json.load(open('$MODEL/model.json'))['sampling']; print(c['noise_scale'], c['noise_correlation'], c['noise_ramp_steps'])")
   bin/export --run "$RUN" --out stitchjax/pretrained/lafan1_cpu_release --check-data "$DATA" --config-name lafan1_cpu_release \
