@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The release recipe at 30000 steps (lafan1_cpu_release_30k.py here) from one command, then what was measured
+# The release recipe at 25000 steps (lafan1_cpu_release_25k.py here) from one command, then what was measured
 # of it. The stages train, export, validation, curve, grid, choose, test and test_default are the release
 # recipe's (results/2026-12-04_release_recipe/run.sh), writing here; the test stage scores L = 10, 30, 50 with
 # and without foot locking. This study's own stages:
@@ -11,12 +11,12 @@
 #            equals), with the default sampling the choose stage picked
 #   picture  the README picture and its spread (picture.py)
 # grid, choose, test_default, release and picture run only when compare said replace.
-#   DATA=/path/to/lafan1 RUNS=/path/to/runs bash results/2026-12-05_release_30k/run.sh [STAGE ...]
+#   DATA=/path/to/lafan1 RUNS=/path/to/runs bash results/2026-12-05_release_25k/run.sh [STAGE ...]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-HERE=results/2026-12-05_release_30k
+HERE=results/2026-12-05_release_25k
 RUNS=${RUNS:?set RUNS to a folder for the run}
-export OUT=$HERE CONFIG=$HERE/lafan1_cpu_release_30k.py RUN=$RUNS/release_30k MODEL=$RUNS/release_30k_model FOOT_LOCK=both
+export OUT=$HERE CONFIG=$HERE/lafan1_cpu_release_25k.py RUN=$RUNS/release_25k MODEL=$RUNS/release_25k_model FOOT_LOCK=both
 STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(train export validation curve compare test grid choose test_default release picture)
 log() { echo "$(date -u +%FT%T) $*" | tee -a "$HERE/log.txt"; }
 replace() { python -c "import json, sys; sys.exit(0 if json.load(open('$HERE/decision.json'))['replace'] else 1)"; }
