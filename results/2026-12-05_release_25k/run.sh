@@ -10,6 +10,7 @@
 #   release  export it into stitchjax/pretrained/lafan1_cpu_release, named lafan1_cpu_release (the config it
 #            equals), with the default sampling the choose stage picked
 #   picture  the README picture and its spread (picture.py)
+#   curve    the recipe's, then cumulative_time.py (the run was trained in three parts)
 # grid, choose, test_default, release and picture run only when compare said replace.
 #   DATA=/path/to/lafan1 RUNS=/path/to/runs bash results/2026-12-05_release_25k/run.sh [STAGE ...]
 set -euo pipefail
@@ -24,6 +25,9 @@ for stage in "${STAGES[@]}"; do
 case $stage in grid|choose|test_default|release|picture)
   replace || { log "$stage: skipped, the release model stays (decision.json)"; continue; } ;; esac
 case $stage in
+curve)  # the recipe's curve, then its times made cumulative over the run's three parts
+  bash results/2026-12-04_release_recipe/run.sh curve
+  python $HERE/cumulative_time.py $HERE/summary_validation.json ;;
 compare)
   python results/2026-12-05_release_v2/compare.py results/2026-12-04_release_recipe/validation_paper.json \
       $HERE/validation_paper.json --out $HERE/decision.json ;;
