@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The release model from one command, then everything measured of it. Stages (each resumable: a finished
 # output is kept):
-#   train        bin/train --config lafan1_cpu_release (20000 steps from scratch)
+#   train        bin/train --config lafan1_cpu_release (20000 steps from scratch when this study ran; the config
+#                now trains 25000, results/2026-12-05_release_25k: `git show a829407:configs/lafan1_cpu_release.py`
+#                is this study's)
 #   export       the float16 release folder, precision-checked
 #   validation   the validation split at the paper's sampling
 #   curve        the run's validation curve (summary_validation.json, validation_curve.png)
@@ -11,8 +13,8 @@
 #                45 (official protocol)
 #   test_default the subject5 test table at the default sampling, L = 10, 30, 50
 #   DATA=/path/to/lafan1 RUNS=/path/to/runs bash results/2026-12-04_release_recipe/run.sh [STAGE ...]
-# Another recipe's study reuses the stages with OUT (its folder), CONFIG, RUN, MODEL and FOOT_LOCK (--foot-lock of
-# the test stage's L = 10, 30, 50 run) set; results/2026-12-05_release_v2/run.sh does.
+# Another recipe's study reuses the stages with OUT (its folder), CONFIG, RUN, MODEL, FOOT_LOCK (--foot-lock of
+# the test stage's L = 10, 30, 50 run) and GRID set; results/2026-12-05_release_v2/run.sh does.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 HERE=results/2026-12-04_release_recipe
@@ -23,6 +25,7 @@ CONFIG=${CONFIG:-lafan1_cpu_release}
 RUN=${RUN:-$RUNS/release20k}
 MODEL=${MODEL:-stitchjax/pretrained/lafan1_cpu_release}
 FOOT_LOCK=${FOOT_LOCK:-off}
+GRID=${GRID:-0 0,0.9 0,0.95 0,0.95 4,0.98 4}  # the grid stage's "RHO RAMP" settings, comma-separated
 STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(train export validation curve grid choose test test_default)
 log() { echo "$(date -u +%FT%T) $*" | tee -a "$OUT/log.txt"; }
 timed() {  # timed NAME COMMAND...: run, log the command and its wall time
@@ -50,7 +53,8 @@ curve)
       --evaluation $OUT/validation_paper.json --out $OUT/summary_validation.json > /dev/null
   python $HERE/curve_figure.py $OUT/summary_validation.json $OUT/validation_curve.png ;;
 grid)
-  for setting in "0 0" "0.9 0" "0.95 0" "0.95 4" "0.98 4"; do
+  IFS=, read -ra settings <<< "$GRID"
+  for setting in "${settings[@]}"; do
     set -- $setting; out=$OUT/grid_rho$1_ramp$2.json
     [ -f "$out" ] && continue
     timed "grid rho $1 ramp $2" bin/evaluate model --checkpoint "$MODEL" --data "$DATA" --split validation --samples 10 \

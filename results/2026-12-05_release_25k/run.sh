@@ -31,15 +31,8 @@ curve)  # the recipe's curve, then its times made cumulative over the run's thre
 compare)
   python results/2026-12-05_release_v2/compare.py results/2026-12-04_release_recipe/validation_paper.json \
       $HERE/validation_paper.json --out $HERE/decision.json ;;
-grid)
-  out=$HERE/grid_rho0.95_ramp4.json
-  if [ ! -f $out ]; then
-    start=$(date +%s)
-    bin/evaluate model --checkpoint "$MODEL" --data "$DATA" --split validation --samples 10 --lengths 30,50 \
-        --noise-correlation 0.95 --noise-ramp 4 --noise-scales 1.5,2,2.5,3 --json $out
-    python -c "import json; d=json.load(open('$out')); d['sampling']={'noise_correlation': 0.95, 'noise_ramp_steps': 4}; json.dump(d, open('$out', 'w'), indent=1)"
-    log "grid rho 0.95 ramp 4: $(( $(date +%s) - start )) s: bin/evaluate model --checkpoint $MODEL --split validation --samples 10 --lengths 30,50 --noise-correlation 0.95 --noise-ramp 4 --noise-scales 1.5,2,2.5,3"
-  fi
+grid)  # the recipe's grid stage on one family
+  GRID="0.95 4" bash results/2026-12-04_release_recipe/run.sh grid
   # the paper's sampling is a candidate too (in the release recipe's grid it was the x1 row of "rho 0, ramp 0"),
   # and choose_sampling.py's fallback rule compares foot slide with it
   python -c "import json; d=json.load(open('$HERE/validation_paper.json')); d['sampling']={'noise_correlation': 0.0, 'noise_ramp_steps': 0}; json.dump(d, open('$HERE/grid_rho0_ramp0_paper_only.json', 'w'), indent=1)" ;;
