@@ -35,6 +35,15 @@ FEET = (3, 4, 7, 8)
 LEGS = ((1, 2, 3), (5, 6, 7))
 
 
+def cpu_name():
+    """The processor's model name (/proc/cpuinfo), else what platform says."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            return next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
+    except (OSError, StopIteration):
+        return platform.processor() or platform.machine()
+
+
 def knee_angles(g):
     """(..., 2) knee angles in degrees of global positions (..., J, 3)."""
     out = []
@@ -127,10 +136,10 @@ def main(argv=None):
         p = np.concatenate([p[1] for p in parts])
         contacts = np.concatenate(captured)
         skeleton = windows.skeleton
-        footlock.lock_transitions(r[:1], p[:1], contacts[:1], skeleton, FEET, config)  # compile a small one
-        footlock.lock_transitions(r, p, contacts, skeleton, FEET, config)  # compile this shape
+        footlock.lock_transitions(r[:1], p[:1], contacts[:1], skeleton, FEET, config, sample_axis=1)  # compile small
+        footlock.lock_transitions(r, p, contacts, skeleton, FEET, config, sample_axis=1)  # compile this shape
         t0 = time.perf_counter()
-        locked, _, stats = footlock.lock_transitions(r, p, contacts, skeleton, FEET, config)
+        locked, _, stats = footlock.lock_transitions(r, p, contacts, skeleton, FEET, config, sample_axis=1)
         lock_s = time.perf_counter() - t0
         gt_q, gt_p = gt_q_all[:, start + 1:target], gt_p_all[:, start + 1:target]
         entry = {"model": scores(r, p, gt_q, gt_p, ground, offsets, parents),
@@ -151,7 +160,7 @@ def main(argv=None):
     result["command"] = "python " + " ".join(sys.argv)
     result["commit"] = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
                                       text=True).stdout.strip()
-    result["machine"] = f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs (2-core AMD EPYC CPU VM)"
+    result["machine"] = f"{cpu_name()}, {os.cpu_count()} CPUs"
     result["wall_s"] = time.time() - started
     with open(args.json, "w") as f:
         json.dump(result, f, indent=1)

@@ -15,6 +15,7 @@ import os
 import sys
 import time
 
+import jax
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -29,7 +30,7 @@ VALIDATION = ("fallAndGetUp1_subject1", "ground1_subject4", "obstacles1_subject2
 START = 9
 
 
-def sample(model, rot, pos, con, length, samples, chunk=128):
+def sample(model, rot, pos, con, length, samples, chunk=128, sampling=None):
     """(rotations, positions, contacts) of the generated transitions (B, S, T, ...), keyframes included."""
     target = START + length + 1
     captured, real = [], inbetween._locked
@@ -42,7 +43,7 @@ def sample(model, rot, pos, con, length, samples, chunk=128):
     try:
         parts = [inbetween.transitions_in_frame(
             model, rot[c, START], pos[c, START], con[c, START], rot[c, target], pos[c, target], con[c, target],
-            length, samples, seed=length + i, foot_lock=True)[:2]
+            length, samples, seed=length + i, foot_lock=True, **(sampling or {}))[:2]
             for i in range(0, len(rot), chunk) for c in [slice(i, i + chunk)]]
     finally:
         inbetween._locked = real
@@ -73,6 +74,8 @@ def main(argv=None):
     parser.add_argument("--lengths", default="30,50")
     parser.add_argument("--samples", type=int, default=10)
     parser.add_argument("--variants", required=True, help="JSON {name: {FootLockConfig field: value}}")
+    parser.add_argument("--sampling", default="{}", help="JSON of transitions_in_frame's noise_scale, "
+                        "noise_correlation, noise_ramp_steps (default: the paper's sampling)")
     parser.add_argument("--json", required=True)
     args = parser.parse_args(argv)
     windows = lafan1.build_windows([os.path.join(args.data, f"{t}.bvh") for t in VALIDATION], 65, 40, workers=1)
@@ -88,11 +91,12 @@ def main(argv=None):
         model = trained_model.pretrained()
         cache = {}
         for length in lengths:
-            r, p, c = sample(model, rot, pos, con, length, args.samples)
+            r, p, c = sample(model, rot, pos, con, length, args.samples, sampling=json.loads(args.sampling))
             cache.update({f"r{length}": r, f"p{length}": p, f"c{length}": c})
         np.savez(args.cache, **cache)
     variants = json.loads(args.variants)
-    result = {"windows": int(len(rot)), "takes": VALIDATION, "samples": args.samples, "lengths": {}}
+    result = {"windows": int(len(rot)), "takes": VALIDATION, "samples": args.samples,
+              "sampling": json.loads(args.sampling), "lengths": {}}
     for length in lengths:
         r, p, c = cache[f"r{length}"], cache[f"p{length}"], cache[f"c{length}"]
         target = START + length + 1
@@ -101,7 +105,7 @@ def main(argv=None):
         for name, fields in variants.items():
             config = footlock.FootLockConfig(**fields)
             t0 = time.perf_counter()
-            locked, _, stats = footlock.lock_transitions(r, p, c, windows.skeleton, measure.FEET, config)
+            locked, _, stats = footlock.lock_transitions(r, p, c, windows.skeleton, measure.FEET, config, sample_axis=1)
             s = measure.scores(locked, p, gt_q, gt_p, ground, offsets, parents)
             m = entry["model"]
             s.update({f"{k}_change_pct": 100 * (s[k] / m[k] - 1) for k in ("ade", "slde", "npss", "apd")})
@@ -109,6 +113,7 @@ def main(argv=None):
             s["fields"] = fields
             s["seconds"] = time.perf_counter() - t0
             entry[name] = s
+            jax.clear_caches()  # one compiled pass per setting: without this, memory grows with every setting
             print(f"L={length} {name:>14}: slide {m['foot_slide']:.3f} -> {s['foot_slide']:.3f} "
                   f"(planted {s['sources']['planted']:.3f} moved {s['sources']['moved']:.3f} "
                   f"untouched {s['sources']['untouched']:.3f}) ADE {s['ade_change_pct']:+.1f}% "

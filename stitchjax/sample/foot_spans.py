@@ -14,7 +14,7 @@ from stitchjax import rotations as R
 from stitchjax.sample.leg_ik import same_hemisphere
 
 __all__ = ["hysteresis", "span_ids", "drop_short_spans", "bridge_gaps", "span_targets", "release_room",
-           "reachable_spans"]
+           "reachable_spans", "shared_scores"]
 
 
 def hysteresis(score, enter: float, leave: float, stay_score=None):
@@ -135,3 +135,19 @@ def bridge_gaps(mask, max_gap: int):
     _, first, last = _span_bounds(~mask)
     inner = (first > 0) & (last < n - 1) & (last - first + 1 <= max_gap)
     return mask | (~mask & inner)
+
+
+def shared_scores(score, stay, ankle, distance: float):
+    """Stance scores shared by samples whose feet stay close: (score (S, T), stay (S, T)).
+
+    score, stay: (S, T) one leg's stance scores of S samples of one keyframe pair; ankle: (S, T, 3) its
+    ankle. Two samples are linked when their ankles' root-mean-square distance over the frames is at most
+    ``distance`` (cm); each sample takes the mean scores of all samples linked to it, directly or through
+    others, so a group of nearly equal samples gets one set of spans."""
+    num = score.shape[0]
+    gap = jnp.sqrt(jnp.mean(jnp.sum((ankle[:, None] - ankle[None]) ** 2, axis=-1), axis=-1))  # (S, S)
+    link = (gap <= distance).astype(score.dtype)
+    for _ in range(max(num - 1, 1).bit_length()):  # transitive closure: paths of up to 2^k links
+        link = jnp.minimum(link @ link, 1.0)
+    weight = link / jnp.sum(link, axis=-1, keepdims=True)
+    return weight @ score, weight @ stay

@@ -8,7 +8,9 @@ A post-process over generated transitions (start keyframe, L generated frames, t
 2. **Spans** (:mod:`stitchjax.sample.foot_spans`: ``hysteresis``, ``bridge_gaps``, ``drop_short_spans``): the
    score switches a span on above ``enter`` and off below ``leave``; gaps of up to ``bridge_frames`` frames
    between spans are filled and spans shorter than ``min_frames`` are dropped, so a flicker neither ends a span
-   nor makes one.
+   nor makes one. Samples of one keyframe pair whose feet stay within ``share_distance`` cm of each other
+   take their spans from their mean score (``foot_spans.shared_scores``, when ``lock_feet`` is given the
+   sample axis): samples that hardly differ plant the same frames, so the pass adds no spread between them.
 3. **Plant** (``foot_spans.span_targets``): each span holds the foot (ankle position and foot orientation, so
    the toe too) at one place: by default the generated foot's mean place over the span (``plant_at``), or the
    keyframe's foot where the span touches a keyframe (a span touching both goes from the one to the other). A
@@ -23,9 +25,9 @@ A post-process over generated transitions (start keyframe, L generated frames, t
    on one at rest; both keyframes take no correction. A foot eased across is lifted on a small arc
    (``step_lift`` of the distance, at most ``max_step_height``).
 6. **Clearance** (``foot_easing.clearance_lift``): outside plants, a foot that still moves (``clearance_speed``)
-   within ``clearance`` cm of the ground where the model predicts contact is lifted to that height, eased in and
-   out: it steps instead of skating. The same rule as the foot-slide metric's (a foot low enough to count as on
-   the ground must not move) decides both the plants and the lifts.
+   within ``clearance`` cm of the ground is lifted to that height (only where the model predicts contact, with
+   ``clearance_contact``), eased in and out: it steps instead of skating. The same rule as the foot-slide
+   metric's (a foot low enough to count as on the ground must not move) decides both the plants and the lifts.
 7. **Leg solve** (:mod:`stitchjax.sample.leg_ik`): hip, knee and ankle turned so the ankle reaches its target;
    bones keep their lengths exactly (only rotations change), the knee stays in the plane of the generated pose
    (pole vector, biased over the toes by ``pole_hint`` so a straight leg bends the right way), and the reach is
@@ -39,7 +41,7 @@ The root, the upper body and every joint's offset are unchanged; only the hip, k
 each leg move. Positions in the data's units (LAFAN1: cm; the thresholds are in cm and cm/frame), +Y up by
 default (``FootLockConfig.up_axis``).
 
-    out = lock_feet(rotations, root_positions, contacts, skeleton)     # any leading batch shape, jit-able
+    out = lock_feet(rotations, root_positions, contacts, skeleton, sample_axis=1)   # (B, S, T, ...); jit-able
     out["rotations"], out["root_positions"], out["let_go"], out["planted"], out["lifted"]
 """
 from __future__ import annotations
@@ -55,7 +57,7 @@ from stitchjax import rotations as R
 from stitchjax.sample.foot_easing import blended_corrections, clearance_lift, eased_plants
 from stitchjax.sample.foot_speed import limit_correction_speed, limit_knee_speed
 from stitchjax.sample.foot_spans import (bridge_gaps, drop_short_spans, hysteresis, reachable_spans, release_room,
-                                         span_targets)
+                                         shared_scores, span_targets)
 from stitchjax.sample.leg_ik import SOFT_REACH, leg_chains, leg_rotations
 from stitchjax.skeleton import Skeleton, forward_kinematics
 
@@ -92,8 +94,9 @@ class FootLockConfig:
       orientation), so a foot leaves a plant and lands on one at rest; False: ease the correction of the
       span's last frame away (the foot leaves at the generated foot's speed).
     clearance: a foot that moves (faster than ``clearance_speed`` cm/frame) within this height (cm) of the
-      ground while the model predicts contact, outside spans, is lifted to it: it steps instead of
-      skating (0: off). The lift is eased in and out over ``clearance_frames`` frames.
+      ground outside spans is lifted to it: it steps instead of skating (0: off). The lift is eased in and
+      out over ``clearance_frames`` frames.
+    clearance_contact: lift only where the model predicts contact (False: any foot that moves low).
     pole_hint: the ankle-to-toe vector times this is added to the knee's pole (``leg_ik.two_bone_ik``), so a
       nearly straight leg bends its knee over the toes, as legs do, instead of where rounding points (0: off).
     correction_step: the ankle's correction may change by at most max(V - s, correction_step) cm per frame,
@@ -104,6 +107,10 @@ class FootLockConfig:
       many degrees (``foot_speed.limit_knee_speed``; planted frames and keyframes exact): near full extension
       a small change of reach is a large change of angle, so a leg is never snapped straight or bent (< 0: no
       limit).
+    share_distance: samples of one keyframe pair whose ankles stay this close (cm, root mean square over the
+      frames; linked through each other) take their spans from their mean stance score
+      (``foot_spans.shared_scores``; only where ``lock_feet`` is told the sample axis). Samples that hardly
+      differ then plant the same frames, so the pass adds no spread between them (0: each its own spans).
     up_axis: the vertical axis of the positions.
     """
 
@@ -115,21 +122,23 @@ class FootLockConfig:
     min_frames: int = 3
     blend_frames: int = 8
     soft_reach: float = SOFT_REACH  # two_bone_ik's default too
-    leash: float = 25.0
+    leash: float = 10.0
     plant_at: float = -1.0
-    release_speed: float = 2.0
+    release_speed: float = 0.5
     hold_while_low: bool = False
     lift_power: float = 3.0
     step_lift: float = 0.2
     max_step_height: float = 3.0
     bridge_frames: int = 2
     ease_to_plant: bool = True
-    clearance: float = 5.0
+    clearance: float = 10.0
     clearance_speed: float = 2.0
+    clearance_contact: bool = False
     clearance_frames: int = 2
     pole_hint: float = 0.3
     correction_step: float = 1.0
     knee_step: float = 6.0
+    share_distance: float = 5.0
     up_axis: int = 1
 
     def __post_init__(self):
@@ -180,10 +189,10 @@ def _floor(heights, joints):
     return jnp.min(jnp.stack([heights[0], heights[-1]])[:, joints])
 
 
-def _leg_spans(g_pos, heights, contacts, leg: tuple, grounds: tuple, config: FootLockConfig):
-    """One leg's stance spans (T,) bool (steps 1 and 2 of the module docstring) and its contact (T,): the larger
-    predicted contact of its ankle and toe. g_pos: (T, J, 3) global positions; heights: (T, J) their heights;
-    grounds: (ankle ground, toe ground), the keyframes' ground levels."""
+def _leg_score(g_pos, heights, contacts, leg: tuple, grounds: tuple, config: FootLockConfig):
+    """One leg's stance score (T,) (step 1 of the module docstring), the score that keeps a span on (T,) and
+    the leg's contact (T,): the larger predicted contact of its ankle and toe. g_pos: (T, J, 3) global
+    positions; heights: (T, J) their heights; grounds: (ankle ground, toe ground), the keyframes' ground levels."""
     _, _, ankle, toe, c_ankle, c_toe = leg
     up = config.up_axis
     ankle_ground, toe_ground = grounds
@@ -192,8 +201,13 @@ def _leg_spans(g_pos, heights, contacts, leg: tuple, grounds: tuple, config: Foo
     contact = jnp.maximum(contacts[:, c_ankle], contacts[:, c_toe])
     score = stance_score(contact, height, speed, config)
     stay = stance_score(contact, height, jnp.zeros_like(speed), config) if config.hold_while_low else score
+    return score, stay, contact
+
+
+def _leg_spans(score, stay, config: FootLockConfig):
+    """(T,) bool stance spans of one leg from its scores (step 2)."""
     spans = hysteresis(score, config.enter, config.leave, stay)
-    return drop_short_spans(bridge_gaps(spans, config.bridge_frames), config.min_frames), contact
+    return drop_short_spans(bridge_gaps(spans, config.bridge_frames), config.min_frames)
 
 
 def _held_frames(spans, target, hip_position, ankle_position, leg_length, config: FootLockConfig):
@@ -235,17 +249,20 @@ def _with_clearance(offset, turn, ankle_position, toe_position, contact, anchor,
     new_toe = new_ankle + R.quat_rotate(turn, toe_position - ankle_position)
     low = jnp.minimum(new_ankle[:, up] - ankle_ground, new_toe[:, up] - toe_ground)
     moving = jnp.maximum(_horizontal_speed(new_ankle, up), _horizontal_speed(new_toe, up))
-    lift = clearance_lift(low, moving, jnp.clip(contact / config.contact_full, 0.0, 1.0), anchor,
+    contact_factor = jnp.clip(contact / config.contact_full, 0.0, 1.0) if config.clearance_contact else 1.0
+    lift = clearance_lift(low, moving, jnp.broadcast_to(contact_factor, low.shape), anchor,
                           config.clearance, config.clearance_speed, config.clearance_frames)
     return offset.at[:, up].add(lift), lift
 
 
 def _lock_leg(rotations, g_rot, g_pos, heights, contacts, offsets, leg: tuple, parents: tuple, grounds: tuple,
-              keyframe, config: FootLockConfig):
+              keyframe, score, stay, config: FootLockConfig):
     """One leg of :func:`_lock_one`: ({hip, knee, ankle: (T, 4) new local rotation}, active (T,) bool: the
-    frames whose leg moves, {"planted", "let_go", "changed", "lifted": (T,) bool})."""
+    frames whose leg moves, {"planted", "let_go", "changed", "lifted": (T,) bool}). score, stay: (T,) the
+    leg's stance scores (:func:`_leg_score`, or shared across samples)."""
     hip, knee, ankle, toe = leg[:4]
-    spans, contact = _leg_spans(g_pos, heights, contacts, leg, grounds, config)
+    contact = _leg_score(g_pos, heights, contacts, leg, grounds, config)[2]
+    spans = _leg_spans(score, stay, config)
     target, target_rotation = span_targets(spans, g_pos[:, ankle], g_rot[:, ankle], grounds[0], config.up_axis,
                                            config.plant_at)
     upper = jnp.linalg.norm(offsets[knee])
@@ -272,20 +289,37 @@ def _lock_leg(rotations, g_rot, g_pos, heights, contacts, offsets, leg: tuple, p
     return local, active, stats
 
 
-def _lock_one(rotations, root_positions, contacts, offsets, legs: tuple, parents: tuple, config: FootLockConfig):
-    """The pass on one transition: rotations (T, J, 4), root (T, 3), contacts (T, C), offsets (J, 3)."""
-    num_frames = rotations.shape[0]
+def _posed(rotations, root_positions, offsets, legs: tuple, parents: tuple, config: FootLockConfig):
+    """FK of one transition: (global rotations (T, J, 4), positions (T, J, 3), heights (T, J), grounds:
+    (ankle ground, toe ground) of the keyframes)."""
     local_positions = jnp.broadcast_to(offsets, rotations.shape[:-1] + (3,)).at[:, 0].set(root_positions)
     g_rot, g_pos = forward_kinematics(rotations, local_positions, parents)
     heights = g_pos[..., config.up_axis]
     grounds = (_floor(heights, jnp.asarray([leg[2] for leg in legs])),
                _floor(heights, jnp.asarray([leg[3] for leg in legs])))
+    return g_rot, g_pos, heights, grounds
+
+
+def _scores_one(rotations, root_positions, contacts, offsets, legs: tuple, parents: tuple, config: FootLockConfig):
+    """Stance scores of one transition: (score (T, legs), stay (T, legs), ankle positions (T, legs, 3))."""
+    _, g_pos, heights, grounds = _posed(rotations, root_positions, offsets, legs, parents, config)
+    parts = [_leg_score(g_pos, heights, contacts, leg, grounds, config)[:2] for leg in legs]
+    return (jnp.stack([p[0] for p in parts], -1), jnp.stack([p[1] for p in parts], -1),
+            jnp.stack([g_pos[:, leg[2]] for leg in legs], -2))
+
+
+def _lock_one(rotations, root_positions, contacts, offsets, score, stay, legs: tuple, parents: tuple,
+              config: FootLockConfig):
+    """The pass on one transition: rotations (T, J, 4), root (T, 3), contacts (T, C), offsets (J, 3), the
+    legs' stance scores score, stay (T, legs)."""
+    num_frames = rotations.shape[0]
+    g_rot, g_pos, heights, grounds = _posed(rotations, root_positions, offsets, legs, parents, config)
     keyframe = jnp.zeros(num_frames, bool).at[0].set(True).at[-1].set(True)
     new_rotations = rotations
     stats = {key: [] for key in ("planted", "let_go", "changed", "lifted")}
-    for leg in legs:
+    for k, leg in enumerate(legs):
         local, active, leg_stats = _lock_leg(rotations, g_rot, g_pos, heights, contacts, offsets, leg, parents,
-                                             grounds, keyframe, config)
+                                             grounds, keyframe, score[:, k], stay[:, k], config)
         for joint, q in local.items():
             new_rotations = new_rotations.at[:, joint].set(jnp.where(active[:, None], q, rotations[:, joint]))
         for key, value in leg_stats.items():
@@ -294,16 +328,19 @@ def _lock_one(rotations, root_positions, contacts, offsets, legs: tuple, parents
             **{key: jnp.stack(values, -1) for key, values in stats.items()}}
 
 
-@functools.partial(jax.jit, static_argnames=("skeleton", "feet", "config"))
+@functools.partial(jax.jit, static_argnames=("skeleton", "feet", "config", "sample_axis"))
 def lock_feet(rotations, root_positions, contacts, skeleton: Skeleton, offsets=None, feet=None,
-              config: FootLockConfig = DEFAULT_CONFIG) -> dict:
+              config: FootLockConfig = DEFAULT_CONFIG, sample_axis: int | None = None) -> dict:
     """Foot locking over a batch of transitions (jit-compiled; vmap-able).
 
     rotations: (..., T, J, 4) local rotations of transitions whose first and last frames are the keyframes;
     root_positions: (..., T, 3); contacts: (..., T, C) predicted contact probabilities, one channel per
     joint of ``feet`` (the keyframes' rows: their contact labels); skeleton: its parents (static);
     offsets: (..., J, 3) bone offsets (default: the skeleton's); feet: the contact joints (ankle, toe, ...)
-    in channel order (default: LAFAN1's names); config: :class:`FootLockConfig`.
+    in channel order (default: LAFAN1's names); config: :class:`FootLockConfig`; sample_axis: the batch axis
+    of rotations that holds the samples of one keyframe pair (e.g. 1 for (B, S, T, J, 4)): samples whose
+    feet stay within ``config.share_distance`` share their stance spans (``foot_spans.shared_scores``);
+    None: each transition decides its own.
     Returns {"rotations" (..., T, J, 4), "root_positions" (..., T, 3) (unchanged), "planted" (..., T, legs)
     frames held by a span, "let_go" (..., T, legs) span frames let go because out of reach, "changed"
     (..., T, legs) frames whose leg moved, "lifted" (..., T, legs) frames whose foot was lifted clear
@@ -314,15 +351,26 @@ def lock_feet(rotations, root_positions, contacts, skeleton: Skeleton, offsets=N
     if offsets is None:
         offsets = jnp.asarray(skeleton.offsets, rotations.dtype)
     offsets = jnp.broadcast_to(jnp.asarray(offsets, rotations.dtype), batch + (skeleton.num_joints, 3))
+    contacts = jnp.asarray(contacts, rotations.dtype)
     flat = lambda x, k: x.reshape((-1,) + x.shape[x.ndim - k:])  # noqa: E731
-    out = jax.vmap(functools.partial(_lock_one, legs=legs, parents=skeleton.parents, config=config))(
-        flat(rotations, 3), flat(root_positions, 2), flat(jnp.asarray(contacts, rotations.dtype), 2),
-        flat(offsets, 2))
-    return jax.tree.map(lambda x: x.reshape(batch + x.shape[1:]), out)
+    unflat = lambda x: x.reshape(batch + x.shape[1:])  # noqa: E731
+    inputs = (flat(rotations, 3), flat(root_positions, 2), flat(contacts, 2), flat(offsets, 2))
+    statics = {"legs": legs, "parents": skeleton.parents, "config": config}
+    score, stay, ankles = jax.vmap(functools.partial(_scores_one, **statics))(*inputs)
+    if sample_axis is not None and config.share_distance > 0:
+        axis = sample_axis % len(batch)
+        score, stay, ankles = (jnp.moveaxis(unflat(x), axis, 0) for x in (score, stay, ankles))
+        share = jax.vmap(shared_scores, in_axes=(-1, -1, -2, None), out_axes=-1)  # over legs
+        for _ in range(len(batch) - 1):  # over the other batch axes
+            share = jax.vmap(share, in_axes=(1, 1, 1, None), out_axes=1)
+        score, stay = share(score, stay, ankles, config.share_distance)
+        score, stay = (flat(jnp.moveaxis(x, 0, axis), 2) for x in (score, stay))
+    out = jax.vmap(functools.partial(_lock_one, **statics))(*inputs, score, stay)
+    return jax.tree.map(unflat, out)
 
 
 def lock_transitions(rotations, positions, contacts, skeleton: Skeleton, feet=None,
-                     config: FootLockConfig = DEFAULT_CONFIG):
+                     config: FootLockConfig = DEFAULT_CONFIG, sample_axis: int | None = None):
     """:func:`lock_feet` on float64 numpy transitions: local rotations (..., T, J, 4), local positions
     (..., T, J, 3) (root position and bone offsets), contacts (..., T, C). Computed in float32; every leg
     joint rotation the pass does not change keeps its float64 input exactly.
@@ -332,7 +380,7 @@ def lock_transitions(rotations, positions, contacts, skeleton: Skeleton, feet=No
     positions = np.asarray(positions, np.float64)
     as32 = lambda x: jnp.asarray(x, jnp.float32)  # noqa: E731
     out = lock_feet(as32(rotations), as32(positions[..., 0, :]), as32(contacts), skeleton,
-                    offsets=as32(positions[..., 0, :, :]), feet=feet, config=config)
+                    offsets=as32(positions[..., 0, :, :]), feet=feet, config=config, sample_axis=sample_axis)
     changed = np.asarray(out["changed"])
     new = np.asarray(out["rotations"], np.float64)
     result = rotations.copy()

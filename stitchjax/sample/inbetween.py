@@ -263,7 +263,8 @@ def _locked(model: Model, rotations, positions, contacts, config, counts: dict |
     names = model.joint_names or tuple(f"joint{j}" for j in range(model.num_joints))
     # the structure only (a static argument of the jitted pass): each transition's own offsets are passed
     skeleton = skeleton_lib.Skeleton(names, model.parents, np.zeros((model.num_joints, 3)))
-    locked, _, stats = footlock.lock_transitions(rotations, positions, contacts, skeleton, model.feet, config)
+    locked, _, stats = footlock.lock_transitions(rotations, positions, contacts, skeleton, model.feet, config,
+                                                 sample_axis=1)
     if counts is not None:
         inner = stats["planted"][..., 1:-1, :]
         counts["leg_frames"] = counts.get("leg_frames", 0) + int(inner.size)

@@ -318,3 +318,37 @@ def test_easing_between_plants_adds_no_joint_jump_or_knee_snap():
     assert np.array_equal(new[[0, -1]], rotations[[0, -1]])
     np.testing.assert_allclose(_bone_lengths(g), np.broadcast_to(np.linalg.norm(OFFSETS[1:], axis=-1), (frames, 4)),
                                atol=1e-3)
+
+
+def test_shared_scores_join_close_samples_only():
+    ankle = jnp.zeros((4, 5, 3)).at[2].add(100.0).at[3].add(0.5)  # 0, 1, 3 within 1 cm; 2 a metre away
+    score = jnp.arange(20.0).reshape(4, 5)
+    shared, stay = foot_spans.shared_scores(score, 2 * score, ankle, 1.0)
+    np.testing.assert_allclose(np.asarray(shared)[[0, 1, 3]], np.broadcast_to(np.asarray(score)[[0, 1, 3]].mean(0),
+                                                                                (3, 5)), rtol=1e-6)
+    np.testing.assert_allclose(np.asarray(shared)[2], np.asarray(score)[2])  # alone: its own
+    np.testing.assert_allclose(np.asarray(stay), 2 * np.asarray(shared), rtol=1e-6)
+    chain = jnp.zeros((3, 5, 3)).at[1, :, 0].add(0.8).at[2, :, 0].add(1.6)  # 0-1 and 1-2 linked, 0-2 only through 1
+    linked, _ = foot_spans.shared_scores(score[:3], score[:3], chain, 1.0)
+    assert np.allclose(np.asarray(linked), np.asarray(linked)[0])
+
+
+def test_close_samples_plant_the_same_frames_distant_ones_their_own():
+    """Two samples of one keyframe pair, the same motion, whose predicted contacts differ over frames 10-19:
+    alone each plants its own frames; told the sample axis, they plant the same ones. A third sample a metre
+    away keeps its own spans."""
+    rotations, root, contacts = _transition()
+    other = contacts.copy()
+    other[10:20] = 0.0
+    far_root = root + np.array([100.0, 0.0, 0.0])
+    r = jnp.asarray(np.stack([rotations] * 3)[None], jnp.float32)  # (B=1, S=3, T, J, 4)
+    p = jnp.asarray(np.stack([root, root, far_root])[None], jnp.float32)
+    c = jnp.asarray(np.stack([contacts, other, other])[None], jnp.float32)
+    alone = np.asarray(footlock.lock_feet(r, p, c, SKELETON, feet=FEET)["planted"])[0, ..., 0]
+    shared = np.asarray(footlock.lock_feet(r, p, c, SKELETON, feet=FEET, sample_axis=1)["planted"])[0, ..., 0]
+    assert not np.array_equal(alone[0], alone[1])
+    assert np.array_equal(shared[0], shared[1]) and shared[0].sum() >= 10
+    assert np.array_equal(shared[2], alone[2])
+    apart = footlock.FootLockConfig(share_distance=0.0)
+    unshared = np.asarray(footlock.lock_feet(r, p, c, SKELETON, feet=FEET, config=apart, sample_axis=1)["planted"])
+    assert np.array_equal(unshared[0, ..., 0], alone)
