@@ -75,17 +75,35 @@ def eased_plants(anchor, free, target, target_rotation, ankle, foot_rotation, bl
     return offset, turn, weight, arc
 
 
-def clearance_lift(height, speed, contact, anchor, clearance: float, clearance_speed: float, frames: int):
+def clearance_lift(height, speed, contact, anchor, clearance: float, clearance_speed: float, frames: int,
+                   from_below: bool = False, keyframe=None, key_frames: int = 0, key_clearance: float = 0.0,
+                   max_lift: float = float("inf")):
     """(T,) how far (cm) to lift a foot that moves low outside its plants, so that it steps clear.
 
     height: (T,) the foot's lowest joint above the ground (cm) after the plants' corrections; speed: (T,)
     its horizontal speed (cm/frame); contact: (T,) in [0, 1] the contact factor (0: the model predicts no
     contact, no lift); anchor: (T,) bool planted frames and keyframes (no lift). The need at a frame is
-    (clearance - height)+ x ramp(speed) (0 below half ``clearance_speed``, 1 from it) x contact; the lift
-    is the largest need within ``frames`` frames, tapered linearly with the distance, and eased to 0 over
-    ``frames`` + 1 frames next to an anchor, so it starts before the foot moves and never jumps."""
+    (clearance - height)+ x ramp(speed) (0 below half ``clearance_speed``, 1 from it) x contact, at most
+    ``clearance``; with ``from_below`` it is capped at ``max_lift`` instead (a foot below the ground is lifted
+    to ``clearance`` above it too) and a foot below the ground is lifted at least to the ground, moving or
+    not, by at most ``max_lift`` (a foot deeper than that belongs to a pose the lift cannot mend). The lift is
+    the largest need within ``frames`` frames, tapered linearly with the distance, and eased to 0 over
+    ``frames`` + 1 frames next to an anchor, so it starts before the foot moves and never jumps. Where
+    ``keyframe`` (T,) bool is given, the clearance falls to ``key_clearance`` over ``key_frames`` + 1 frames
+    next to a keyframe (the lift eased between the two), so the frames next to a keyframe stay near it."""
+    if keyframe is not None and key_frames > 0:
+        high = clearance_lift(height, speed, contact, anchor, clearance, clearance_speed, frames, from_below,
+                              max_lift=max_lift)
+        low = clearance_lift(height, speed, contact, anchor, key_clearance, clearance_speed, frames, from_below,
+                             max_lift=max_lift)
+        since, until = _frames_from(keyframe)
+        far = _smoothstep(jnp.minimum(since, until).astype(high.dtype) / (key_frames + 1.0))
+        return far * high + (1.0 - far) * low
     ramp = jnp.clip(2.0 * speed / clearance_speed - 1.0, 0.0, 1.0)
-    need = jnp.clip(clearance - height, 0.0, clearance) * ramp * contact
+    short = jnp.maximum(clearance - height, 0.0)
+    need = (short if from_below else jnp.minimum(short, clearance)) * ramp * contact
+    if from_below:
+        need = jnp.minimum(jnp.maximum(need, jnp.maximum(-height, 0.0)), max_lift)
     need = jnp.where(anchor, 0.0, need)
     n = need.shape[0]
     lift = need

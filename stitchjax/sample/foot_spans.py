@@ -13,8 +13,8 @@ import jax.numpy as jnp
 from stitchjax import rotations as R
 from stitchjax.sample.leg_ik import same_hemisphere
 
-__all__ = ["hysteresis", "span_ids", "drop_short_spans", "bridge_gaps", "span_targets", "release_room",
-           "reachable_spans", "shared_scores"]
+__all__ = ["hysteresis", "span_ids", "drop_short_spans", "bridge_gaps", "split_drifting_spans", "span_targets",
+           "release_room", "reachable_spans", "shared_scores"]
 
 
 def hysteresis(score, enter: float, leave: float, stay_score=None):
@@ -53,6 +53,29 @@ def drop_short_spans(mask, min_frames: int):
     lengths = jax.ops.segment_sum(mask.astype(jnp.int32), ids, num_segments=n + 1)
     return mask & (lengths[ids] >= min_frames)
 
+
+
+def split_drifting_spans(mask, position, distance: float, gap: int, up_axis: int = 1):
+    """(T,) bool: ``mask`` with each span cut into runs over which the foot stays within ``distance`` (cm,
+    horizontally) of where the run began, ``gap`` frames left out between two runs (the step from the one
+    plant to the next; at least 1), so a foot that skates through a long span takes steps instead of being
+    held far from where it is. position: (T, 3) the generated foot. ``distance`` <= 0: ``mask`` unchanged."""
+    if distance <= 0:
+        return mask
+
+    def step(carry, x):
+        start, running, skip = carry
+        on, p = x
+        away = jnp.sum((p - start).at[up_axis].set(0.0) ** 2) > distance**2
+        cut = on & running & away & (skip == 0)
+        keep = on & (skip == 0) & ~cut
+        start = jnp.where(keep & ~running, p, start)
+        running = keep
+        skip = jnp.where(cut, gap - 1, jnp.where(on, jnp.maximum(skip - 1, 0), 0))
+        return (start, running, skip), keep
+
+    init = (jnp.zeros(3, position.dtype), jnp.asarray(False), jnp.asarray(0))
+    return jax.lax.scan(step, init, (mask, position))[1]
 
 def span_targets(mask, ankle, foot_rotation, floor, up_axis: int = 1, plant_at: float = 0.0):
     """Where each span plants the foot: (target ankle positions (T, 3), target foot rotations (T, 4)).

@@ -4,16 +4,19 @@ Mid-swing the generated foot can be far from both plants, so the eased correctio
 pushing ahead within a few frames, and the IK goal crosses near-full extension, where a small change of reach
 is a large change of knee angle. :func:`limit_correction_speed` keeps the corrected ankle no faster than the
 generated foot's own top speed; :func:`limit_knee_speed` keeps the solved knee angle's change per frame close
-to the generated knee's. Anchor frames (plants, keyframes) keep their values exactly.
+to the generated knee's. Anchor frames (plants, keyframes) keep their values exactly. :func:`guard_joint_jumps` is
+the last safety net: where a leg joint of the result still moves farther in one frame than any joint of the
+generated transition does, the correction is pulled back towards the generated pose there.
 """
 from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
 
-from stitchjax.sample.leg_ik import soft_reach
+from stitchjax.sample.leg_ik import same_hemisphere, soft_reach
+from stitchjax.skeleton import forward_kinematics
 
-__all__ = ["limit_correction_speed", "knee_angle", "limit_knee_speed"]
+__all__ = ["limit_correction_speed", "knee_angle", "limit_knee_speed", "guard_joint_jumps"]
 
 
 def limit_correction_speed(offset, ankle, anchor, floor: float):
@@ -94,3 +97,50 @@ def _limit_steps(x, allowed, anchor):
     forward = jnp.concatenate([x[:1], forward])
     _, backward = jax.lax.scan(step_to, forward[-1], (forward[:-1], anchor[:-1], allowed), reverse=True)
     return jnp.concatenate([backward, forward[-1:]])
+
+
+def guard_joint_jumps(locked, generated, local_positions, legs: tuple, parents: tuple, iterations: int,
+                      floor: float = 0.0, spread: int = 3):
+    """(T, J, 4) ``locked`` local rotations with no leg joint stepping farther in one frame than the largest
+    step of any joint of the ``generated`` transition (T, J, 4), or than ``floor`` cm where that is more (so
+    the pass never makes a fast transition's fastest motion faster). local_positions: (T, J, 3) root positions and bone offsets; legs: (hip, knee,
+    ankle, toe, ...) per leg (:func:`leg_ik.leg_chains`). Each of ``iterations`` rounds halves the leg's
+    correction (the weight of ``locked`` against ``generated`` in a normalised blend of its hip, knee and
+    ankle rotations) on both frames of every step of that leg still too long, and by less over ``spread``
+    frames each side (a tent), so the cut leaves no dip; frames where ``locked`` equals ``generated``
+    (keyframes among them) are returned exactly."""
+    if iterations <= 0:
+        return locked
+
+    def steps(g):  # (T-1, legs): each leg's longest joint step (knee, ankle, toe)
+        chain = jnp.stack([g[:, jnp.asarray(leg[1:4])] for leg in legs], 1)  # (T, legs, 3, 3)
+        return jnp.linalg.norm(chain[1:] - chain[:-1], axis=-1).max(-1)
+
+    _, g_generated = forward_kinematics(generated, local_positions, parents)
+    bound = jnp.maximum(jnp.linalg.norm(g_generated[1:] - g_generated[:-1], axis=-1).max(), floor)
+    joints = [jnp.asarray(leg[:3]) for leg in legs]
+
+    def blend(weight):  # weight: (T, legs) the share of each leg's correction kept
+        out = locked
+        for k, j in enumerate(joints):
+            a, b = generated[:, j], same_hemisphere(locked[:, j], generated[:, j])
+            w = weight[:, k, None, None]
+            mixed = (1.0 - w) * a + w * b
+            out = out.at[:, j].set(mixed / jnp.linalg.norm(mixed, axis=-1, keepdims=True))
+        return out
+
+    def step(weight, _):
+        too_long = steps(forward_kinematics(blend(weight), local_positions, parents)[1]) > bound
+        none = jnp.zeros_like(too_long[:1])
+        frames = (jnp.concatenate([none, too_long]) | jnp.concatenate([too_long, none])).astype(weight.dtype)
+        n = frames.shape[0]
+        near = frames
+        for d in range(1, spread + 1):  # a tent of ``spread`` frames each side: the correction is cut smoothly
+            padded = jnp.pad(frames, ((d, d), (0, 0)))
+            near = jnp.maximum(near, (1.0 - d / (spread + 1.0)) * jnp.maximum(padded[:n], padded[2 * d:]))
+        return weight * (1.0 - 0.5 * near), None
+
+    weight = jax.lax.scan(step, jnp.ones((locked.shape[0], len(legs)), locked.dtype), None, length=iterations)[0]
+    guarded = blend(weight)
+    same = jnp.all(locked == generated, axis=-1, keepdims=True)
+    return jnp.where(same | jnp.all(weight >= 1.0, axis=1)[:, None, None], locked, guarded)

@@ -8,7 +8,8 @@ A post-process over generated transitions (start keyframe, L generated frames, t
 2. **Spans** (:mod:`stitchjax.sample.foot_spans`: ``hysteresis``, ``bridge_gaps``, ``drop_short_spans``): the
    score switches a span on above ``enter`` and off below ``leave``; gaps of up to ``bridge_frames`` frames
    between spans are filled and spans shorter than ``min_frames`` are dropped, so a flicker neither ends a span
-   nor makes one. Samples of one keyframe pair whose feet stay within ``share_distance`` cm of each other
+   nor makes one. With ``replant_distance``, a span whose foot skates that far is cut into several plants
+   (``foot_spans.split_drifting_spans``). Samples of one keyframe pair whose feet stay within ``share_distance`` cm of each other
    take their spans from their mean score (``foot_spans.shared_scores``, when ``lock_feet`` is given the
    sample axis): samples that hardly differ plant the same frames, so the pass adds no spread between them.
 3. **Plant** (``foot_spans.span_targets``): each span holds the foot (ankle position and foot orientation, so
@@ -26,8 +27,12 @@ A post-process over generated transitions (start keyframe, L generated frames, t
    (``step_lift`` of the distance, at most ``max_step_height``).
 6. **Clearance** (``foot_easing.clearance_lift``): outside plants, a foot that still moves (``clearance_speed``)
    within ``clearance`` cm of the ground is lifted to that height (only where the model predicts contact, with
-   ``clearance_contact``), eased in and out: it steps instead of skating. The same rule as the foot-slide
-   metric's (a foot low enough to count as on the ground must not move) decides both the plants and the lifts.
+   ``clearance_contact``), eased in and out: it steps instead of skating. With ``lift_from_below`` a foot
+   below the ground is lifted the whole way (and out of the ground where it does not move), by at most
+   ``max_lift``; next to a keyframe the clearance falls to ``key_clearance`` over ``clearance_key_frames``
+   frames. The same rule as the foot-slide metric's (a foot low enough to count as on the ground must not
+   move) decides both the plants and the lifts. The jump guard (step 8) and ``replant_distance`` are off by
+   default: both lost on the validation split (results/2026-12-06_footlock_v5).
 7. **Leg solve** (:mod:`stitchjax.sample.leg_ik`): hip, knee and ankle turned so the ankle reaches its target;
    bones keep their lengths exactly (only rotations change), the knee stays in the plane of the generated pose
    (pole vector, biased over the toes by ``pole_hint`` so a straight leg bends the right way), and the reach is
@@ -35,6 +40,9 @@ A post-process over generated transitions (start keyframe, L generated frames, t
    straight. Between plants the ankle's correction changes no faster than the generated foot's spare speed
    and the solved knee angle no faster than the generated knee's plus ``knee_step`` degrees per frame
    (:mod:`stitchjax.sample.foot_speed`): easing to a plant adds no joint jump.
+8. **Jump guard** (``foot_speed.guard_joint_jumps``, ``jump_guard`` rounds): where a leg joint still moves
+   farther in one frame than any joint of the generated transition (and than ``jump_floor`` cm), the leg's
+   correction is cut there, so the pass never makes a fast transition's fastest motion faster.
 
 Frames that no span, blend or lift touches, both keyframes among them, are returned bit for bit as given.
 The root, the upper body and every joint's offset are unchanged; only the hip, knee and ankle rotations of
@@ -55,9 +63,9 @@ import numpy as np
 
 from stitchjax import rotations as R
 from stitchjax.sample.foot_easing import blended_corrections, clearance_lift, eased_plants
-from stitchjax.sample.foot_speed import limit_correction_speed, limit_knee_speed
+from stitchjax.sample.foot_speed import guard_joint_jumps, limit_correction_speed, limit_knee_speed
 from stitchjax.sample.foot_spans import (bridge_gaps, drop_short_spans, hysteresis, reachable_spans, release_room,
-                                         shared_scores, span_targets)
+                                         shared_scores, span_targets, split_drifting_spans)
 from stitchjax.sample.leg_ik import SOFT_REACH, leg_chains, leg_rotations
 from stitchjax.skeleton import Skeleton, forward_kinematics
 
@@ -97,6 +105,16 @@ class FootLockConfig:
       ground outside spans is lifted to it: it steps instead of skating (0: off). The lift is eased in and
       out over ``clearance_frames`` frames.
     clearance_contact: lift only where the model predicts contact (False: any foot that moves low).
+    lift_from_below: a foot below the ground is lifted to ``clearance`` above it like any other (False: by at
+      most ``clearance``), and lifted at least to the ground where it does not move; by at most ``max_lift``
+      cm either way (a foot deeper than that belongs to a pose, kneeling or lying, that no lift mends).
+    replant_distance: a span is cut where its foot has drifted this far (cm, horizontally) from where the
+      current plant began, and planted anew after ``replant_gap`` (>= 1) frames: a foot that skates through a
+      long span takes short steps between plants instead of being held far from the generated foot and let
+      go (``foot_spans.split_drifting_spans``; 0: off).
+    clearance_key_frames, key_clearance: next to a keyframe the clearance falls to ``key_clearance`` cm
+      over this many frames (+ 1), so the frames next to a keyframe stay near it (0: off; the lift is eased
+      to 0 next to a keyframe as next to a plant either way).
     pole_hint: the ankle-to-toe vector times this is added to the knee's pole (``leg_ik.two_bone_ik``), so a
       nearly straight leg bends its knee over the toes, as legs do, instead of where rounding points (0: off).
     correction_step: the ankle's correction may change by at most max(V - s, correction_step) cm per frame,
@@ -111,6 +129,10 @@ class FootLockConfig:
       frames; linked through each other) take their spans from their mean stance score
       (``foot_spans.shared_scores``; only where ``lock_feet`` is told the sample axis). Samples that hardly
       differ then plant the same frames, so the pass adds no spread between them (0: each its own spans).
+    jump_guard, jump_floor: rounds of ``foot_speed.guard_joint_jumps``: where a leg joint of the result moves
+      farther in one frame than any joint of the generated transition and than ``jump_floor`` cm, the leg's
+      correction is halved there, up to this many times (0: off), so the pass does not make a fast
+      transition's fastest motion faster (slower steps are the speed limits' business).
     up_axis: the vertical axis of the positions.
     """
 
@@ -135,10 +157,18 @@ class FootLockConfig:
     clearance_speed: float = 2.0
     clearance_contact: bool = False
     clearance_frames: int = 2
+    lift_from_below: bool = True
+    max_lift: float = 30.0
+    replant_distance: float = 0.0
+    replant_gap: int = 2
+    clearance_key_frames: int = 8
+    key_clearance: float = 3.0
     pole_hint: float = 0.3
     correction_step: float = 1.0
     knee_step: float = 6.0
     share_distance: float = 5.0
+    jump_guard: int = 0
+    jump_floor: float = 20.0
     up_axis: int = 1
 
     def __post_init__(self):
@@ -150,9 +180,10 @@ class FootLockConfig:
             raise ValueError(f"foot lock: soft_reach must be in (0, 1), got {self.soft_reach}")
         if self.contact_full <= 0 or self.height <= 0 or self.speed <= 0:
             raise ValueError("foot lock: contact_full, height and speed must be > 0")
-        if self.bridge_frames < 0 or self.clearance < 0 or self.clearance_speed <= 0 or self.clearance_frames < 0:
-            raise ValueError("foot lock: bridge_frames, clearance, clearance_frames must be >= 0, "
-                             "clearance_speed > 0")
+        if (self.bridge_frames < 0 or self.clearance < 0 or self.clearance_speed <= 0 or self.clearance_frames < 0
+                or self.clearance_key_frames < 0 or self.key_clearance < 0 or self.replant_gap < 1):
+            raise ValueError("foot lock: bridge_frames, clearance, clearance_frames, clearance_key_frames, "
+                             "key_clearance must be >= 0, clearance_speed > 0, replant_gap >= 1")
 
 
 DEFAULT_CONFIG = FootLockConfig()
@@ -238,7 +269,7 @@ def _plant_corrections(anchor, keyframe, kept, target, target_rotation, ankle_po
     return offset, turn, weight
 
 
-def _with_clearance(offset, turn, ankle_position, toe_position, contact, anchor, grounds: tuple,
+def _with_clearance(offset, turn, ankle_position, toe_position, contact, anchor, keyframe, grounds: tuple,
                     config: FootLockConfig):
     """(offset with the clearance lift added (step 6), lift (T,) in cm)."""
     up = config.up_axis
@@ -251,7 +282,9 @@ def _with_clearance(offset, turn, ankle_position, toe_position, contact, anchor,
     moving = jnp.maximum(_horizontal_speed(new_ankle, up), _horizontal_speed(new_toe, up))
     contact_factor = jnp.clip(contact / config.contact_full, 0.0, 1.0) if config.clearance_contact else 1.0
     lift = clearance_lift(low, moving, jnp.broadcast_to(contact_factor, low.shape), anchor,
-                          config.clearance, config.clearance_speed, config.clearance_frames)
+                          config.clearance, config.clearance_speed, config.clearance_frames,
+                          config.lift_from_below, keyframe, config.clearance_key_frames, config.key_clearance,
+                          config.max_lift)
     return offset.at[:, up].add(lift), lift
 
 
@@ -263,6 +296,9 @@ def _lock_leg(rotations, g_rot, g_pos, heights, contacts, offsets, leg: tuple, p
     hip, knee, ankle, toe = leg[:4]
     contact = _leg_score(g_pos, heights, contacts, leg, grounds, config)[2]
     spans = _leg_spans(score, stay, config)
+    if config.replant_distance > 0:
+        spans = drop_short_spans(split_drifting_spans(spans, g_pos[:, ankle], config.replant_distance,
+                                                      config.replant_gap, config.up_axis), config.min_frames)
     target, target_rotation = span_targets(spans, g_pos[:, ankle], g_rot[:, ankle], grounds[0], config.up_axis,
                                            config.plant_at)
     upper = jnp.linalg.norm(offsets[knee])
@@ -271,7 +307,8 @@ def _lock_leg(rotations, g_rot, g_pos, heights, contacts, offsets, leg: tuple, p
     anchor = kept | keyframe
     offset, turn, weight = _plant_corrections(anchor, keyframe, kept, target, target_rotation, g_pos[:, ankle],
                                               g_rot[:, ankle], config)
-    offset, lift = _with_clearance(offset, turn, g_pos[:, ankle], g_pos[:, toe], contact, anchor, grounds, config)
+    offset, lift = _with_clearance(offset, turn, g_pos[:, ankle], g_pos[:, toe], contact, anchor, keyframe,
+                                   grounds, config)
     if config.correction_step >= 0:
         offset = limit_correction_speed(offset, g_pos[:, ankle], anchor, config.correction_step)
     active = ~keyframe & (jnp.any(offset != 0, axis=-1) | (turn[:, 0] < 1.0))
@@ -324,6 +361,10 @@ def _lock_one(rotations, root_positions, contacts, offsets, score, stay, legs: t
             new_rotations = new_rotations.at[:, joint].set(jnp.where(active[:, None], q, rotations[:, joint]))
         for key, value in leg_stats.items():
             stats[key].append(value)
+    if config.jump_guard > 0:
+        local_positions = jnp.broadcast_to(offsets, rotations.shape[:-1] + (3,)).at[:, 0].set(root_positions)
+        new_rotations = guard_joint_jumps(new_rotations, rotations, local_positions, legs, parents, config.jump_guard,
+                                          config.jump_floor)
     return {"rotations": new_rotations, "root_positions": root_positions,
             **{key: jnp.stack(values, -1) for key, values in stats.items()}}
 

@@ -174,6 +174,24 @@ def test_bridge_gaps_fills_short_gaps_between_spans_only():
     assert np.array_equal(np.asarray(foot_spans.bridge_gaps(mask, 0)), np.asarray(mask))
 
 
+
+def test_split_drifting_spans_cuts_a_skating_span_into_plants():
+    frames = 30
+    mask = jnp.zeros(frames, bool).at[2:28].set(True)
+    skate = jnp.zeros((frames, 3)).at[:, 2].set(1.5 * jnp.arange(frames)).at[:, 1].set(jnp.arange(frames))
+    out = np.asarray(foot_spans.split_drifting_spans(mask, skate, 10.0, 2))
+    ids = np.asarray(foot_spans.span_ids(jnp.asarray(out)))
+    assert ids.max() == 3 and not (out & ~np.asarray(mask)).any()  # three plants, all inside the span
+    z = np.asarray(skate[:, 2])
+    for k in range(1, ids.max() + 1):
+        run = np.flatnonzero(ids == k)
+        assert z[run].max() - z[run].min() <= 10.0  # each within the distance (horizontally: y rises 1/frame)
+        if k > 1:
+            assert run[0] - np.flatnonzero(ids == k - 1)[-1] - 1 == 2  # two frames between plants
+    still = jnp.zeros((frames, 3))
+    np.testing.assert_array_equal(np.asarray(foot_spans.split_drifting_spans(mask, still, 10.0, 2)), mask)
+    np.testing.assert_array_equal(np.asarray(foot_spans.split_drifting_spans(mask, skate, 0.0, 2)), mask)
+
 def test_plant_at_the_mean_of_the_span():
     mask = jnp.asarray([0, 0, 1, 1, 1, 1, 0, 0], bool)
     ankle = jnp.stack([jnp.arange(8.0), jnp.full(8, 5.0), jnp.zeros(8)], -1)
@@ -214,6 +232,62 @@ def test_clearance_lift_steps_a_moving_low_foot_and_needs_contact():
     assert not none.any()  # no predicted contact, no lift
 
 
+
+def test_clearance_lift_from_below_reaches_the_clearance_and_the_ground():
+    n = 20
+    anchor = jnp.zeros(n, bool).at[:4].set(True).at[-1].set(True)
+    height = jnp.full(n, -6.0)  # a foot 6 cm into the ground
+    moving, still = jnp.full(n, 5.0), jnp.full(n, 0.2)
+    capped = np.asarray(foot_easing.clearance_lift(height, moving, jnp.ones(n), anchor, 4.0, 2.0, 2))
+    np.testing.assert_allclose(capped[8:16], 4.0)  # version 4: at most the clearance, still 2 cm below
+    lifted = np.asarray(foot_easing.clearance_lift(height, moving, jnp.ones(n), anchor, 4.0, 2.0, 2, from_below=True))
+    np.testing.assert_allclose(lifted[8:16], 10.0)  # to the clearance above the ground
+    assert np.all(lifted[np.asarray(anchor)] == 0.0)
+    out = np.asarray(foot_easing.clearance_lift(height, still, jnp.zeros(n), anchor, 4.0, 2.0, 2, from_below=True))
+    np.testing.assert_allclose(out[8:16], 6.0)  # at rest and without contact: out of the ground, no higher
+    capped = np.asarray(foot_easing.clearance_lift(height, moving, jnp.ones(n), anchor, 4.0, 2.0, 2, from_below=True,
+                                                   max_lift=3.0))
+    np.testing.assert_allclose(capped[8:16], 3.0)  # never more than max_lift
+    above = np.asarray(foot_easing.clearance_lift(jnp.full(n, 1.0), still, jnp.ones(n), anchor, 4.0, 2.0, 2,
+                                                  from_below=True))
+    assert not above.any()  # a foot above the ground at rest is left alone
+
+
+def test_clearance_lift_falls_to_the_key_clearance_next_to_keyframes():
+    n = 30
+    keyframe = jnp.zeros(n, bool).at[0].set(True).at[-1].set(True)
+    anchor = keyframe.at[12:16].set(True)  # a plant in the middle
+    args = (jnp.zeros(n), jnp.full(n, 5.0), jnp.ones(n), anchor, 4.0, 2.0, 2)
+    near_plant = np.asarray(foot_easing.clearance_lift(*args))
+    near_key = np.asarray(foot_easing.clearance_lift(*args, keyframe=keyframe, key_frames=5))
+    assert near_key[1] < near_plant[1] and near_key[-2] < near_plant[-2]  # less lift next to the keyframes
+    np.testing.assert_allclose(near_key[6:12], near_plant[6:12])  # away from them, the same
+    np.testing.assert_allclose(near_key[16:18], near_plant[16:18])  # next to the plant, the same
+    assert near_key[1] > 0.0 and np.abs(np.diff(near_key[:7])).max() < np.abs(np.diff(near_plant[:7])).max()
+    low = np.asarray(foot_easing.clearance_lift(*args, keyframe=keyframe, key_frames=5, key_clearance=2.0))
+    assert near_key[1] < low[1] < near_plant[1] and near_key[-2] < low[-2] < near_plant[-2]  # lifted, less high
+    np.testing.assert_allclose(low[6:12], near_plant[6:12])
+
+
+def test_a_foot_sunk_into_the_ground_is_lifted_out_with_lift_from_below():
+    frames = 30
+    rotations, root = _pose(frames, knee_degrees=60.0, step=0.3)  # slow: no clearance lift by speed
+    root[:, 1] -= 6.0 * np.sin(np.pi * np.arange(frames) / (frames - 1))  # the body sinks 6 cm and comes back
+    local = np.broadcast_to(OFFSETS, rotations.shape[:-1] + (3,)).copy()
+    local[:, 0] = root
+    contacts = np.zeros((frames, 2))  # no contact predicted: nothing is planted
+    toe = {}
+    for below in (False, True):
+        config = footlock.FootLockConfig(lift_from_below=below)
+        locked, _, _ = footlock.lock_transitions(rotations, local, contacts, SKELETON, FEET, config)
+        toe[below] = _global_positions(locked, root)[:, 4, 1]
+        np.testing.assert_array_equal(locked[[0, -1]], rotations[[0, -1]])  # keyframes bit for bit
+        np.testing.assert_allclose(_bone_lengths(_global_positions(locked, root)),
+                                   np.broadcast_to(np.linalg.norm(OFFSETS[1:], axis=-1), (frames, 4)), atol=1e-4)
+    assert toe[False][12:18].max() < -4.0  # version 4 leaves the foot in the ground
+    assert toe[True][12:18].min() > -0.05  # out of it, on the keyframes' ground (y = 0)
+    assert toe[True].max() < 0.5  # and no higher
+
 def test_pole_hint_bends_a_straight_leg_over_the_toes():
     hip, knee, ankle = jnp.asarray([0.0, 80.0, 0.0]), jnp.asarray([0.0, 40.0, 0.0]), jnp.asarray([0.0, 0.0, 0.0])
     target = jnp.asarray([0.0, 10.0, 0.0])  # 70 cm from the hip: the knee must bend, the straight leg has no plane
@@ -243,7 +317,8 @@ def test_skating_foot_is_planted_or_lifted():
         return (weight * step).sum() / max((weight > 0).sum(), 1)
 
     before, after = slide(_global_positions(rotations, root)), slide(_global_positions(locked, root))
-    assert before > 2.0 and after < 0.25 * before
+    # 0.44 cm/frame left with the full clearance next to the keyframes, 0.63 with the defaults' 3 cm there
+    assert before > 2.0 and after < 0.3 * before
     assert stats["planted"].any() and stats["lifted"].any()
     assert np.array_equal(locked[[0, -1]], rotations[[0, -1]])
     g = _global_positions(locked, root)
@@ -319,6 +394,33 @@ def test_easing_between_plants_adds_no_joint_jump_or_knee_snap():
     np.testing.assert_allclose(_bone_lengths(g), np.broadcast_to(np.linalg.norm(OFFSETS[1:], axis=-1), (frames, 4)),
                                atol=1e-3)
 
+
+
+def test_jump_guard_keeps_leg_steps_within_the_generated_largest_step():
+    frames = 24
+    generated, root = _pose(frames, knee_degrees=40.0, step=1.0)
+    root[20:, 2] += 4.0  # the generated transition's longest step: 5 cm, every joint, frame 19 to 20
+    local = np.broadcast_to(OFFSETS, generated.shape[:-1] + (3,)).copy()
+    local[:, 0] = root
+    generated = generated.astype(np.float32)  # the pass's precision, so frames returned exactly compare equal
+    locked = generated.copy()
+    locked[10:14, 2] = _about_x(100.0)  # a knee snapped to 100 degrees for four frames: a 20+ cm jump
+    legs = leg_ik.leg_chains(SKELETON, FEET)
+    step = lambda q: np.linalg.norm(np.diff(_global_positions(q, root), axis=0), axis=-1).max()  # noqa: E731
+    bound = step(generated)
+    assert step(locked) > bound + 10.0
+    out = np.asarray(foot_speed.guard_joint_jumps(jnp.asarray(locked), jnp.asarray(generated), jnp.asarray(local),
+                                                  legs, PARENTS, 12))
+    assert step(out) <= bound + 0.05  # no step longer than the generated transition's longest
+    np.testing.assert_array_equal(out[:5], locked[:5])  # frames away from the jump are returned exactly
+    np.testing.assert_array_equal(out[-5:], locked[-5:])
+    small = generated.copy()
+    small[10:14, 2] = _about_x(41.0)  # a correction whose steps stay within the bound is left alone
+    assert step(small) <= bound and np.abs(small - generated).max() > 1e-3
+    np.testing.assert_array_equal(np.asarray(foot_speed.guard_joint_jumps(
+        jnp.asarray(small), jnp.asarray(generated), jnp.asarray(local), legs, PARENTS, 12)), small)
+    np.testing.assert_array_equal(np.asarray(foot_speed.guard_joint_jumps(
+        jnp.asarray(locked), jnp.asarray(generated), jnp.asarray(local), legs, PARENTS, 0)), locked)  # 0: off
 
 def test_shared_scores_join_close_samples_only():
     ankle = jnp.zeros((4, 5, 3)).at[2].add(100.0).at[3].add(0.5)  # 0, 1, 3 within 1 cm; 2 a metre away
