@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Foot locking version 5: lifts out of the ground, a lower clearance next to keyframes, a jump guard; the
 # settings chosen on the validation split at L = 10, 15, 30 and 50, then the subject5 test windows once.
-#   bash results/2026-12-06_footlock_v5/run.sh grid|choose|default_sampling|test|benchmark|grid_first   (from the repository root)
+#   bash results/2026-12-06_footlock_v5/run.sh grid|choose|default_sampling|test|benchmark|hover|grid_first   (from the repository root)
 # DATA: the LAFAN1 folder (default ../shared/data/lafan1); CACHE: where the validation transitions are kept.
 set -euo pipefail
 HERE=results/2026-12-06_footlock_v5
@@ -25,7 +25,11 @@ case "${1:-}" in
       --variants '{"chosen": {}}' --json $HERE/validation_default_sampling.json ;;
   test)    # the package's defaults (the choice) on the 376 subject5 test windows, every length, read once
     python results/2026-12-04_footlock/measure.py --data "$DATA" --windows test --json $HERE/test_subject5.json ;;
+  hover)   # how often a foot is left hovering, validation, the defaults and version 4 (needs the grid's cache)
+    python $HERE/hover.py --data "$DATA" --cache "$CACHE" --json $HERE/hover_validation.json
+    python $HERE/hover.py --data "$DATA" --cache "$CACHE" --fields "$(python -c "import json; print(json.dumps(json.load(open('$HERE/candidates.json'))['v4']))")" \
+      --json $HERE/hover_validation_v4.json ;;
   benchmark)  # the pass's time against sampling's, 64 transitions of 50 frames
     python benchmarks/footlock.py --runs 5 --json $HERE/benchmark_cpu.json ;;
-  *) echo "usage: $0 grid|choose|default_sampling|test|benchmark|grid_first" >&2; exit 2 ;;
+  *) echo "usage: $0 grid|choose|default_sampling|test|benchmark|hover|grid_first" >&2; exit 2 ;;
 esac
