@@ -13,6 +13,7 @@ import json
 import os
 import sys
 
+import jax
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -22,7 +23,7 @@ import measure  # noqa: E402
 import tune  # noqa: E402
 
 from stitchjax.data import lafan1  # noqa: E402
-from stitchjax.sample import footlock  # noqa: E402
+from stitchjax.sample import foot_spans, footlock  # noqa: E402
 from stitchjax.skeleton import forward_kinematics  # noqa: E402
 
 RAISED_CM, LOW_CM, LONG_FRAMES = 5.0, 5.0, 10
@@ -31,18 +32,8 @@ ANKLES = (3, 7)
 
 def long_runs(mask, frames: int):
     """(..., T) bool: the frames of ``mask`` (..., T) in runs of at least ``frames`` along the last axis."""
-    out = np.zeros(mask.shape, bool)  # C order: the reshape below is a view of it
-    flat, res = np.ascontiguousarray(mask).reshape(-1, mask.shape[-1]), out.reshape(-1, mask.shape[-1])
-    for row, dst in zip(flat, res):
-        start = None
-        for t, on in enumerate(list(row) + [False]):
-            if on and start is None:
-                start = t
-            elif not on and start is not None:
-                if t - start >= frames:
-                    dst[start:t] = True
-                start = None
-    return out
+    flat = np.ascontiguousarray(mask).reshape(-1, mask.shape[-1])
+    return np.asarray(jax.vmap(lambda m: foot_spans.drop_short_spans(m, frames))(flat)).reshape(mask.shape)
 
 
 def main():

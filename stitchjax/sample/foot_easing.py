@@ -13,7 +13,7 @@ import jax.numpy as jnp
 from stitchjax import rotations as R
 from stitchjax.sample.leg_ik import same_hemisphere
 
-__all__ = ["eased_plants", "blended_corrections", "clearance_lift"]
+__all__ = ["eased_plants", "blended_corrections", "clearance_lift", "tent_max"]
 
 
 def _frames_from(anchor):
@@ -104,16 +104,21 @@ def clearance_lift(height, speed, contact, anchor, clearance: float, clearance_s
     need = (short if from_below else jnp.minimum(short, clearance)) * ramp * contact
     if from_below:
         need = jnp.minimum(jnp.maximum(need, jnp.maximum(-height, 0.0)), max_lift)
-    need = jnp.where(anchor, 0.0, need)
-    n = need.shape[0]
-    lift = need
-    for k in range(1, frames + 1):
-        taper = 1.0 - k / (frames + 1.0)
-        padded = jnp.pad(need, (k, k))
-        lift = jnp.maximum(lift, taper * jnp.maximum(padded[:n], padded[2 * k:]))
+    lift = tent_max(jnp.where(anchor, 0.0, need), frames)
     since, until = _frames_from(anchor)
     near = jnp.minimum(since, until).astype(need.dtype)
     return lift * _smoothstep(near / (frames + 1.0))
+
+
+def tent_max(x, frames: int):
+    """(T, ...) the largest of ``x`` (T, ...) within ``frames`` frames along the first axis, each neighbour
+    weighted by 1 - d / (frames + 1) at distance d: a peak spread as a tent, so what follows it never jumps."""
+    n = x.shape[0]
+    out = x
+    for d in range(1, frames + 1):
+        padded = jnp.pad(x, [(d, d)] + [(0, 0)] * (x.ndim - 1))
+        out = jnp.maximum(out, (1.0 - d / (frames + 1.0)) * jnp.maximum(padded[:n], padded[2 * d:]))
+    return out
 
 
 def _smoothstep(x):

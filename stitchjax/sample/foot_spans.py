@@ -54,7 +54,6 @@ def drop_short_spans(mask, min_frames: int):
     return mask & (lengths[ids] >= min_frames)
 
 
-
 def split_drifting_spans(mask, position, distance: float, gap: int, up_axis: int = 1):
     """(T,) bool: ``mask`` with each span cut into runs over which the foot stays within ``distance`` (cm,
     horizontally) of where the run began, ``gap`` frames left out between two runs (the step from the one
@@ -76,6 +75,7 @@ def split_drifting_spans(mask, position, distance: float, gap: int, up_axis: int
 
     init = (jnp.zeros(3, position.dtype), jnp.asarray(False), jnp.asarray(0))
     return jax.lax.scan(step, init, (mask, position))[1]
+
 
 def span_targets(mask, ankle, foot_rotation, floor, up_axis: int = 1, plant_at: float = 0.0):
     """Where each span plants the foot: (target ankle positions (T, 3), target foot rotations (T, 4)).

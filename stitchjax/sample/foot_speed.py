@@ -13,6 +13,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from stitchjax.sample.foot_easing import tent_max
 from stitchjax.sample.leg_ik import same_hemisphere, soft_reach
 from stitchjax.skeleton import forward_kinematics
 
@@ -99,12 +100,13 @@ def _limit_steps(x, allowed, anchor):
     return jnp.concatenate([backward, forward[-1:]])
 
 
-def guard_joint_jumps(locked, generated, local_positions, legs: tuple, parents: tuple, iterations: int,
-                      floor: float = 0.0, spread: int = 3):
+def guard_joint_jumps(locked, generated, generated_positions, local_positions, legs: tuple, parents: tuple,
+                      iterations: int, floor: float = 0.0, spread: int = 3):
     """(T, J, 4) ``locked`` local rotations with no leg joint stepping farther in one frame than the largest
-    step of any joint of the ``generated`` transition (T, J, 4), or than ``floor`` cm where that is more (so
-    the pass never makes a fast transition's fastest motion faster). local_positions: (T, J, 3) root positions and bone offsets; legs: (hip, knee,
-    ankle, toe, ...) per leg (:func:`leg_ik.leg_chains`). Each of ``iterations`` rounds halves the leg's
+    step of any joint of the ``generated`` transition (T, J, 4; its global positions ``generated_positions``
+    (T, J, 3)), or than ``floor`` cm where that is more (so the pass never makes a fast transition's fastest
+    motion faster). local_positions: (T, J, 3) root positions and bone offsets; legs: (hip, knee, ankle, toe,
+    ...) per leg (:func:`leg_ik.leg_chains`). Each of ``iterations`` rounds halves the leg's
     correction (the weight of ``locked`` against ``generated`` in a normalised blend of its hip, knee and
     ankle rotations) on both frames of every step of that leg still too long, and by less over ``spread``
     frames each side (a tent), so the cut leaves no dip; frames where ``locked`` equals ``generated``
@@ -116,8 +118,8 @@ def guard_joint_jumps(locked, generated, local_positions, legs: tuple, parents: 
         chain = jnp.stack([g[:, jnp.asarray(leg[1:4])] for leg in legs], 1)  # (T, legs, 3, 3)
         return jnp.linalg.norm(chain[1:] - chain[:-1], axis=-1).max(-1)
 
-    _, g_generated = forward_kinematics(generated, local_positions, parents)
-    bound = jnp.maximum(jnp.linalg.norm(g_generated[1:] - g_generated[:-1], axis=-1).max(), floor)
+    steps_generated = jnp.linalg.norm(generated_positions[1:] - generated_positions[:-1], axis=-1)
+    bound = jnp.maximum(steps_generated.max(), floor)
     joints = [jnp.asarray(leg[:3]) for leg in legs]
 
     def blend(weight):  # weight: (T, legs) the share of each leg's correction kept
@@ -133,12 +135,7 @@ def guard_joint_jumps(locked, generated, local_positions, legs: tuple, parents: 
         too_long = steps(forward_kinematics(blend(weight), local_positions, parents)[1]) > bound
         none = jnp.zeros_like(too_long[:1])
         frames = (jnp.concatenate([none, too_long]) | jnp.concatenate([too_long, none])).astype(weight.dtype)
-        n = frames.shape[0]
-        near = frames
-        for d in range(1, spread + 1):  # a tent of ``spread`` frames each side: the correction is cut smoothly
-            padded = jnp.pad(frames, ((d, d), (0, 0)))
-            near = jnp.maximum(near, (1.0 - d / (spread + 1.0)) * jnp.maximum(padded[:n], padded[2 * d:]))
-        return weight * (1.0 - 0.5 * near), None
+        return weight * (1.0 - 0.5 * tent_max(frames, spread)), None  # cut smoothly over ``spread`` frames
 
     weight = jax.lax.scan(step, jnp.ones((locked.shape[0], len(legs)), locked.dtype), None, length=iterations)[0]
     guarded = blend(weight)

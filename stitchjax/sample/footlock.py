@@ -9,9 +9,10 @@ A post-process over generated transitions (start keyframe, L generated frames, t
    score switches a span on above ``enter`` and off below ``leave``; gaps of up to ``bridge_frames`` frames
    between spans are filled and spans shorter than ``min_frames`` are dropped, so a flicker neither ends a span
    nor makes one. With ``replant_distance``, a span whose foot skates that far is cut into several plants
-   (``foot_spans.split_drifting_spans``). Samples of one keyframe pair whose feet stay within ``share_distance`` cm of each other
-   take their spans from their mean score (``foot_spans.shared_scores``, when ``lock_feet`` is given the
-   sample axis): samples that hardly differ plant the same frames, so the pass adds no spread between them.
+   (``foot_spans.split_drifting_spans``). Samples of one keyframe pair whose feet stay within
+   ``share_distance`` cm of each other take their spans from their mean score (``foot_spans.shared_scores``,
+   when ``lock_feet`` is given the sample axis): samples that hardly differ plant the same frames, so the pass
+   adds no spread between them.
 3. **Plant** (``foot_spans.span_targets``): each span holds the foot (ankle position and foot orientation, so
    the toe too) at one place: by default the generated foot's mean place over the span (``plant_at``), or the
    keyframe's foot where the span touches a keyframe (a span touching both goes from the one to the other). A
@@ -181,9 +182,10 @@ class FootLockConfig:
         if self.contact_full <= 0 or self.height <= 0 or self.speed <= 0:
             raise ValueError("foot lock: contact_full, height and speed must be > 0")
         if (self.bridge_frames < 0 or self.clearance < 0 or self.clearance_speed <= 0 or self.clearance_frames < 0
-                or self.clearance_key_frames < 0 or self.key_clearance < 0 or self.replant_gap < 1):
+                or self.clearance_key_frames < 0 or self.key_clearance < 0 or self.max_lift < 0
+                or self.replant_gap < 1):
             raise ValueError("foot lock: bridge_frames, clearance, clearance_frames, clearance_key_frames, "
-                             "key_clearance must be >= 0, clearance_speed > 0, replant_gap >= 1")
+                             "key_clearance, max_lift must be >= 0, clearance_speed > 0, replant_gap >= 1")
 
 
 DEFAULT_CONFIG = FootLockConfig()
@@ -363,8 +365,8 @@ def _lock_one(rotations, root_positions, contacts, offsets, score, stay, legs: t
             stats[key].append(value)
     if config.jump_guard > 0:
         local_positions = jnp.broadcast_to(offsets, rotations.shape[:-1] + (3,)).at[:, 0].set(root_positions)
-        new_rotations = guard_joint_jumps(new_rotations, rotations, local_positions, legs, parents, config.jump_guard,
-                                          config.jump_floor)
+        new_rotations = guard_joint_jumps(new_rotations, rotations, g_pos, local_positions, legs, parents,
+                                          config.jump_guard, config.jump_floor)
     return {"rotations": new_rotations, "root_positions": root_positions,
             **{key: jnp.stack(values, -1) for key, values in stats.items()}}
 

@@ -4,6 +4,7 @@ contacts."""
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from stitchjax.sample import foot_easing, foot_spans, foot_speed, footlock, leg_ik
 from stitchjax import rotations as R
@@ -150,8 +151,6 @@ def test_spans_hysteresis_and_blend():
 
 
 def test_before_after_figure(tmp_path):
-    import pytest
-
     from stitchjax.eval import plots
 
     rotations, root, contacts = _transition()
@@ -174,7 +173,6 @@ def test_bridge_gaps_fills_short_gaps_between_spans_only():
     assert np.array_equal(np.asarray(foot_spans.bridge_gaps(mask, 0)), np.asarray(mask))
 
 
-
 def test_split_drifting_spans_cuts_a_skating_span_into_plants():
     frames = 30
     mask = jnp.zeros(frames, bool).at[2:28].set(True)
@@ -191,6 +189,7 @@ def test_split_drifting_spans_cuts_a_skating_span_into_plants():
     still = jnp.zeros((frames, 3))
     np.testing.assert_array_equal(np.asarray(foot_spans.split_drifting_spans(mask, still, 10.0, 2)), mask)
     np.testing.assert_array_equal(np.asarray(foot_spans.split_drifting_spans(mask, skate, 0.0, 2)), mask)
+
 
 def test_plant_at_the_mean_of_the_span():
     mask = jnp.asarray([0, 0, 1, 1, 1, 1, 0, 0], bool)
@@ -232,7 +231,6 @@ def test_clearance_lift_steps_a_moving_low_foot_and_needs_contact():
     assert not none.any()  # no predicted contact, no lift
 
 
-
 def test_clearance_lift_from_below_reaches_the_clearance_and_the_ground():
     n = 20
     anchor = jnp.zeros(n, bool).at[:4].set(True).at[-1].set(True)
@@ -251,6 +249,9 @@ def test_clearance_lift_from_below_reaches_the_clearance_and_the_ground():
     above = np.asarray(foot_easing.clearance_lift(jnp.full(n, 1.0), still, jnp.ones(n), anchor, 4.0, 2.0, 2,
                                                   from_below=True))
     assert not above.any()  # a foot above the ground at rest is left alone
+    for bad in ({"max_lift": -1.0}, {"key_clearance": -1.0}, {"clearance_key_frames": -1}, {"replant_gap": 0}):
+        with pytest.raises(ValueError, match="foot lock"):
+            footlock.FootLockConfig(**bad)
 
 
 def test_clearance_lift_falls_to_the_key_clearance_next_to_keyframes():
@@ -287,6 +288,7 @@ def test_a_foot_sunk_into_the_ground_is_lifted_out_with_lift_from_below():
     assert toe[False][12:18].max() < -4.0  # version 4 leaves the foot in the ground
     assert toe[True][12:18].min() > -0.05  # out of it, on the keyframes' ground (y = 0)
     assert toe[True].max() < 0.5  # and no higher
+
 
 def test_pole_hint_bends_a_straight_leg_over_the_toes():
     hip, knee, ankle = jnp.asarray([0.0, 80.0, 0.0]), jnp.asarray([0.0, 40.0, 0.0]), jnp.asarray([0.0, 0.0, 0.0])
@@ -395,7 +397,6 @@ def test_easing_between_plants_adds_no_joint_jump_or_knee_snap():
                                atol=1e-3)
 
 
-
 def test_jump_guard_keeps_leg_steps_within_the_generated_largest_step():
     frames = 24
     generated, root = _pose(frames, knee_degrees=40.0, step=1.0)
@@ -409,18 +410,19 @@ def test_jump_guard_keeps_leg_steps_within_the_generated_largest_step():
     step = lambda q: np.linalg.norm(np.diff(_global_positions(q, root), axis=0), axis=-1).max()  # noqa: E731
     bound = step(generated)
     assert step(locked) > bound + 10.0
-    out = np.asarray(foot_speed.guard_joint_jumps(jnp.asarray(locked), jnp.asarray(generated), jnp.asarray(local),
-                                                  legs, PARENTS, 12))
+    g_generated = jnp.asarray(_global_positions(generated, root), jnp.float32)
+    guard = lambda q, rounds: np.asarray(foot_speed.guard_joint_jumps(  # noqa: E731
+        jnp.asarray(q), jnp.asarray(generated), g_generated, jnp.asarray(local), legs, PARENTS, rounds))
+    out = guard(locked, 12)
     assert step(out) <= bound + 0.05  # no step longer than the generated transition's longest
     np.testing.assert_array_equal(out[:5], locked[:5])  # frames away from the jump are returned exactly
     np.testing.assert_array_equal(out[-5:], locked[-5:])
     small = generated.copy()
     small[10:14, 2] = _about_x(41.0)  # a correction whose steps stay within the bound is left alone
     assert step(small) <= bound and np.abs(small - generated).max() > 1e-3
-    np.testing.assert_array_equal(np.asarray(foot_speed.guard_joint_jumps(
-        jnp.asarray(small), jnp.asarray(generated), jnp.asarray(local), legs, PARENTS, 12)), small)
-    np.testing.assert_array_equal(np.asarray(foot_speed.guard_joint_jumps(
-        jnp.asarray(locked), jnp.asarray(generated), jnp.asarray(local), legs, PARENTS, 0)), locked)  # 0: off
+    np.testing.assert_array_equal(guard(small, 12), small)
+    np.testing.assert_array_equal(guard(locked, 0), locked)  # 0: off
+
 
 def test_shared_scores_join_close_samples_only():
     ankle = jnp.zeros((4, 5, 3)).at[2].add(100.0).at[3].add(0.5)  # 0, 1, 3 within 1 cm; 2 a metre away
