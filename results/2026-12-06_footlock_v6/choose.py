@@ -11,6 +11,12 @@ the model alone's), and
      the paper's and the default sampling), no joint jump more than 5 % above the model alone's largest at the
      same sampling and length (version 5 passed rules 2 and 4 on the validation windows, then made a 43.6 cm
      jump on one test transition against the model alone's 36.5 cm: the validation windows were too few);
+  6. (added after a probe of the jump guard on the artefact set, before the grid and before any test window
+     was read: the guard kept the jumps but turned knees by up to 44 degrees in a frame, where the model
+     alone's largest is 23.7; the guard's cut was then made gradual, ``foot_speed.slope_limited``) no
+     knee-angle change per frame more than 6 degrees (the knee limit's ``knee_step``) above the model alone's
+     largest, on the validation windows over the four lengths and on the artefact set at each sampling and
+     length;
 then take the one with the lowest foot slide averaged over L = 30 and 50, the lengths of the slide target.
 """
 import argparse
@@ -26,6 +32,7 @@ _spec = importlib.util.spec_from_file_location("choose_v5", os.path.join(HERE, "
                                                                          "choose.py"))
 v5 = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(v5)
+KNEE_DEGREES = 6.0  # FootLockConfig.knee_step
 
 
 def main():
@@ -41,6 +48,7 @@ def main():
     artefacts = json.load(open(args.artefacts))["rows"]
     lengths = sorted(grid["lengths"], key=int)
     model_jump = max(grid["lengths"][L]["model"]["max_joint_jump_cm"] for L in lengths)
+    model_knee = max(grid["lengths"][L]["model"]["max_knee_change_deg_per_frame"] for L in lengths)
     rows = {}
     for name in grid["lengths"][lengths[0]]:
         if name == "model":
@@ -53,13 +61,16 @@ def main():
         worst = max(costs.values())
         artefact_ok = all(artefacts[name][key][0] <= v5.JUMP_RATIO * artefacts["model"][key][0]
                           for key in artefacts["model"])
+        knee = max(p["max_knee_change_deg_per_frame"] for p in per.values())
+        knee_ok = knee <= model_knee + KNEE_DEGREES and all(
+            artefacts[name][key][1] <= artefacts["model"][key][1] + KNEE_DEGREES for key in artefacts["model"])
         rows[name] = {"slide": float(np.mean([per[L]["foot_slide"] for L in v5.SLIDE_LENGTHS])),
                       "slide_by_length": {L: p["foot_slide"] for L, p in per.items()},
                       "worst_cost_pct_by_length": costs, "worst_cost_pct": worst, "max_joint_jump_cm": jump,
-                      "max_knee_change_deg": max(p["max_knee_change_deg_per_frame"] for p in per.values()),
+                      "max_knee_change_deg": knee, "knee_ok": knee_ok,
                       "swing_jump_ratio": ratio, "artefact_jumps_cm": artefacts[name], "artefact_ok": artefact_ok,
                       "kept": (worst <= v5.COST_PCT and jump <= v5.JUMP_RATIO * model_jump
-                               and ratio <= v5.SWING_RATIO and artefact_ok),
+                               and ratio <= v5.SWING_RATIO and artefact_ok and knee_ok),
                       "fields": fields}
     choice = None
     for name in sorted((k for k, v in rows.items() if v["kept"]), key=lambda k: rows[k]["slide"]):
@@ -80,6 +91,7 @@ def main():
     art_model = {key: v[0] for key, v in artefacts["model"].items()}
     print(f"model alone's largest joint jump: validation {model_jump:.1f} cm, artefact set {art_model}; chosen: {choice}")
     json.dump({"rule": __doc__.split("Rule:")[1].strip(), "lengths": lengths, "model_max_joint_jump_cm": model_jump,
+               "model_max_knee_change_deg": model_knee,
                "model_artefact_jumps_cm": artefacts["model"], "choice": choice, "rows": rows,
                "command": "python " + " ".join(sys.argv)}, open(args.json, "w"), indent=1)
 

@@ -17,7 +17,7 @@ from stitchjax.sample.foot_easing import tent_max
 from stitchjax.sample.leg_ik import same_hemisphere, soft_reach
 from stitchjax.skeleton import forward_kinematics
 
-__all__ = ["limit_correction_speed", "knee_angle", "limit_knee_speed", "guard_joint_jumps"]
+__all__ = ["limit_correction_speed", "knee_angle", "limit_knee_speed", "guard_joint_jumps", "slope_limited"]
 
 
 def limit_correction_speed(offset, ankle, anchor, floor: float):
@@ -109,8 +109,10 @@ def guard_joint_jumps(locked, generated, generated_positions, local_positions, l
     ...) per leg (:func:`leg_ik.leg_chains`). Each of ``iterations`` rounds halves the leg's
     correction (the weight of ``locked`` against ``generated`` in a normalised blend of its hip, knee and
     ankle rotations) on both frames of every step of that leg still too long, and by less over ``spread``
-    frames each side (a tent), so the cut leaves no dip; frames where ``locked`` equals ``generated``
-    (keyframes among them) are returned exactly."""
+    frames each side (a tent), so the cut leaves no dip; after each round the weight changes by at most
+    1 / (2 ``spread`` + 2) per frame (:func:`slope_limited`), so cuts repeated over rounds leave no steep edge
+    (a knee snapping back to its correction); frames where ``locked`` equals ``generated`` (keyframes among
+    them) are returned exactly."""
     if iterations <= 0:
         return locked
 
@@ -135,9 +137,22 @@ def guard_joint_jumps(locked, generated, generated_positions, local_positions, l
         too_long = steps(forward_kinematics(blend(weight), local_positions, parents)[1]) > bound
         none = jnp.zeros_like(too_long[:1])
         frames = (jnp.concatenate([none, too_long]) | jnp.concatenate([too_long, none])).astype(weight.dtype)
-        return weight * (1.0 - 0.5 * tent_max(frames, spread)), None  # cut smoothly over ``spread`` frames
+        cut = weight * (1.0 - 0.5 * tent_max(frames, spread))  # cut smoothly over ``spread`` frames
+        return slope_limited(cut, 0.5 / (spread + 1.0), 2 * spread + 2), None  # and rounds add no steep edge
 
     weight = jax.lax.scan(step, jnp.ones((locked.shape[0], len(legs)), locked.dtype), None, length=iterations)[0]
     guarded = blend(weight)
     same = jnp.all(locked == generated, axis=-1, keepdims=True)
     return jnp.where(same | jnp.all(weight >= 1.0, axis=1)[:, None, None], locked, guarded)
+
+
+def slope_limited(weight, rate: float, frames: int):
+    """(T, ...) the largest sequence at most ``weight`` (T, ...) whose value changes by at most ``rate`` per
+    frame along the first axis: min over d <= ``frames`` of weight(t +- d) + rate d (``frames`` >= 1 / rate
+    makes the limit exact for weights in [0, 1])."""
+    n = weight.shape[0]
+    out = weight
+    for d in range(1, frames + 1):
+        padded = jnp.pad(weight, [(d, d)] + [(0, 0)] * (weight.ndim - 1), constant_values=jnp.inf)
+        out = jnp.minimum(out, jnp.minimum(padded[:n], padded[2 * d:]) + rate * d)
+    return out

@@ -422,6 +422,19 @@ def test_jump_guard_keeps_leg_steps_within_the_generated_largest_step():
     assert step(small) <= bound and np.abs(small - generated).max() > 1e-3
     np.testing.assert_array_equal(guard(small, 12), small)
     np.testing.assert_array_equal(guard(locked, 0), locked)  # 0: off
+    angle = lambda q: np.degrees(2 * np.arccos(np.clip(np.abs(q[:, 2, 0]), 0.0, 1.0)))  # noqa: E731  the knee's turn
+    # rounds of cuts leave no steep edge: the correction (60 degrees at the knee) changes by at most an eighth
+    # (1 / (2 spread + 2)) per frame (the weight's slope limit: test_slope_limited_...)
+    assert np.abs(np.diff(angle(out))).max() <= 60.0 / 8 + 0.5
+
+
+def test_slope_limited_is_the_largest_sequence_below_with_that_slope():
+    weight = jnp.asarray([1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.9, 1.0, 1.0])
+    out = np.asarray(foot_speed.slope_limited(weight, 0.25, 4))
+    np.testing.assert_allclose(out, [1.0, 0.75, 0.5, 0.25, 0.0, 0.25, 0.5, 0.75, 1.0, 1.0], atol=1e-6)
+    assert np.all(out <= np.asarray(weight)) and np.abs(np.diff(out)).max() <= 0.25 + 1e-6
+    smooth = jnp.linspace(0.0, 1.0, 9)[:, None] * jnp.ones((1, 2))  # already within the slope: unchanged
+    np.testing.assert_array_equal(foot_speed.slope_limited(smooth, 0.25, 4), smooth)
 
 
 def test_shared_scores_join_close_samples_only():
