@@ -18,6 +18,12 @@ the model alone's), and
      largest, on the validation windows over the four lengths and on the artefact set at each sampling and
      length;
 then take the one with the lowest foot slide averaged over L = 30 and 50, the lengths of the slide target.
+
+Amended after the first choice (``guard8_cs3_floor15``), before any test figure was read: rule 3's ratio is
+the largest over the synthetic swing at 0.98, 1 and 1.02 times its speed (``swing_ratio``). The first choice
+passed with 1.127 on a knife edge: its largest step was 15.0 cm, exactly the guard's ``jump_floor``, and
+whether the guard cut it (1.127) or not (1.25) depended on the last bit of a float (the test suite's XLA
+flags gave 1.25). Candidates with a lower ``jump_floor`` were added (``candidates_second.json``).
 """
 import argparse
 import importlib.util
@@ -35,17 +41,54 @@ _spec.loader.exec_module(v5)
 KNEE_DEGREES = 6.0  # FootLockConfig.knee_step
 
 
+SWING_SCALES = (0.98, 1.0, 1.02)
+
+
+def swing_ratio(fields: dict) -> float:
+    """Rule 3's ratio: the largest joint jump of the locked synthetic stand-swing-stand transition over the
+    generated one's (version 4's ``swing_ratio``), the largest over the swing at ``SWING_SCALES`` times its speed."""
+    synthetic = v5.v4.synthetic
+    frames = 40
+    t = np.arange(frames)
+    ratios = []
+    for scale in SWING_SCALES:
+        speed = 0.5 + np.where((t > 12) & (t < 28), 11.5 * scale * np.sin(np.pi * (t - 12) / 16) ** 2, 0.0)
+        rotations, root = synthetic._pose(frames, knee_degrees=60.0)
+        root[:, 2] = np.concatenate([[0.0], np.cumsum(speed[1:])])
+        contacts = np.ones((frames, 2))
+        contacts[0] = contacts[-1] = 0.0
+        local = np.broadcast_to(synthetic.OFFSETS, rotations.shape[:-1] + (3,)).copy()
+        local[:, 0] = root
+        locked, _, _ = v5.v4.footlock.lock_transitions(rotations, local, contacts, synthetic.SKELETON, synthetic.FEET,
+                                                       v5.v4.footlock.FootLockConfig(**fields))
+        jump = lambda g: np.linalg.norm(np.diff(g, axis=0), axis=-1).max()  # noqa: E731
+        ratios.append(jump(synthetic._global_positions(locked, root)) / jump(synthetic._global_positions(rotations, root)))
+    return float(max(ratios))
+
+
+def merged(paths, key: str) -> dict:
+    """The ``key`` entries of several JSON files of one kind (tune.py's "lengths", jumps.py's "rows"), merged."""
+    out = {}
+    for path in paths:
+        for name, value in json.load(open(path))[key].items():
+            if isinstance(value, dict) and isinstance(out.get(name), dict):
+                out[name] = {**out[name], **value}
+            else:
+                out[name] = value
+    return out
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--validation", required=True, help="tune.py's JSON over candidates.json")
+    parser.add_argument("--validation", required=True, nargs="+", help="tune.py's JSONs over the candidates")
     parser.add_argument("--default-cache", required=True, help="the validation transitions at the default sampling "
                         "(.npz; sampled and written there when missing)")
-    parser.add_argument("--artefacts", required=True, help="jumps.py's JSON over candidates.json")
+    parser.add_argument("--artefacts", required=True, nargs="+", help="jumps.py's JSONs over the candidates")
     parser.add_argument("--data", default="../shared/data/lafan1")
     parser.add_argument("--json", required=True)
     args = parser.parse_args()
-    grid = json.load(open(args.validation))
-    artefacts = json.load(open(args.artefacts))["rows"]
+    grid = {"lengths": merged(args.validation, "lengths")}
+    artefacts = merged(args.artefacts, "rows")
     lengths = sorted(grid["lengths"], key=int)
     model_jump = max(grid["lengths"][L]["model"]["max_joint_jump_cm"] for L in lengths)
     model_knee = max(grid["lengths"][L]["model"]["max_knee_change_deg_per_frame"] for L in lengths)
@@ -57,7 +100,7 @@ def main():
         costs = {L: max(p[f"{k}_change_pct"] for k in ("ade", "slde", "npss", "apd")) for L, p in per.items()}
         jump = max(p["max_joint_jump_cm"] for p in per.values())
         fields = per[lengths[0]]["fields"]
-        ratio = v5.v4.swing_ratio(fields)
+        ratio = swing_ratio(fields)
         worst = max(costs.values())
         artefact_ok = all(artefacts[name][key][0] <= v5.JUMP_RATIO * artefacts["model"][key][0]
                           for key in artefacts["model"])

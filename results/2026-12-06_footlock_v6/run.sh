@@ -9,14 +9,20 @@ HERE=results/2026-12-06_footlock_v6
 DATA=${DATA:-../shared/data/lafan1}
 CACHE=${CACHE:-/tmp/footlock_v6_validation.npz}
 case "${1:-}" in
-  grid)    # the release model's transitions on the 376 validation windows, every candidate scored on them
+  grid)    # the release model's transitions on the 376 validation windows, every candidate scored on them (the
+           # second list was added after the first choice, see choose.py)
     python results/2026-12-04_footlock/tune.py --data "$DATA" --cache "$CACHE" --lengths 10,15,30,50 \
-      --variants "$(cat $HERE/candidates.json)" --json $HERE/validation_grid.json ;;
+      --variants "$(cat $HERE/candidates.json)" --json $HERE/validation_grid.json
+    python results/2026-12-04_footlock/tune.py --data "$DATA" --cache "$CACHE" --lengths 10,15,30,50 \
+      --variants "$(cat $HERE/candidates_second.json)" --json $HERE/validation_grid_second.json ;;
   artefacts)  # the largest joint jumps of every candidate on the artefact set (training takes)
     python $HERE/jumps.py --data "$DATA" --cache "${CACHE%.npz}_artefacts.npz" --candidates $HERE/candidates.json \
-      --json $HERE/artefact_jumps.json ;;
-  choose)  # the rule of choose.py
-    python $HERE/choose.py --data "$DATA" --validation $HERE/validation_grid.json --artefacts $HERE/artefact_jumps.json \
+      --json $HERE/artefact_jumps.json
+    python $HERE/jumps.py --data "$DATA" --cache "${CACHE%.npz}_artefacts.npz" --candidates $HERE/candidates_second.json \
+      --json $HERE/artefact_jumps_second.json ;;
+  choose)  # the rule of choose.py, over both candidate lists
+    python $HERE/choose.py --data "$DATA" --validation $HERE/validation_grid.json $HERE/validation_grid_second.json \
+      --artefacts $HERE/artefact_jumps.json $HERE/artefact_jumps_second.json \
       --default-cache "${CACHE%.npz}_default_sampling.npz" --json $HERE/choice.json ;;
   default_sampling)  # the package's defaults (the choice) at the release model's default sampling, validation
     python results/2026-12-04_footlock/tune.py --data "$DATA" --cache "${CACHE%.npz}_default_sampling.npz" \

@@ -13,9 +13,9 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from stitchjax import rotations as R
 from stitchjax.sample.foot_easing import tent_max
 from stitchjax.sample.leg_ik import same_hemisphere, soft_reach
-from stitchjax.skeleton import forward_kinematics
 
 __all__ = ["limit_correction_speed", "knee_angle", "limit_knee_speed", "guard_joint_jumps", "slope_limited"]
 
@@ -100,50 +100,68 @@ def _limit_steps(x, allowed, anchor):
     return jnp.concatenate([backward, forward[-1:]])
 
 
-def guard_joint_jumps(locked, generated, generated_positions, local_positions, legs: tuple, parents: tuple,
+def guard_joint_jumps(locked, generated, generated_global, local_positions, legs: tuple, parents: tuple,
                       iterations: int, floor: float = 0.0, spread: int = 3):
     """(T, J, 4) ``locked`` local rotations with no leg joint stepping farther in one frame than the largest
-    step of any joint of the ``generated`` transition (T, J, 4; its global positions ``generated_positions``
-    (T, J, 3)), or than ``floor`` cm where that is more (so the pass never makes a fast transition's fastest
-    motion faster). local_positions: (T, J, 3) root positions and bone offsets; legs: (hip, knee, ankle, toe,
-    ...) per leg (:func:`leg_ik.leg_chains`). Each of ``iterations`` rounds halves the leg's
+    step of any joint of the ``generated`` transition (T, J, 4; its global rotations and positions
+    ``generated_global``: ((T, J, 4), (T, J, 3))), or than ``floor`` cm where that is more (so the pass never
+    makes a fast transition's fastest motion faster). local_positions: (T, J, 3) root positions and bone
+    offsets; legs: (hip, knee, ankle, toe, ...) per leg (:func:`leg_ik.leg_chains`; only their hip, knee and
+    ankle rotations may differ from ``generated``); parents: the skeleton's. Each of ``iterations`` rounds halves the leg's
     correction (the weight of ``locked`` against ``generated`` in a normalised blend of its hip, knee and
     ankle rotations) on both frames of every step of that leg still too long, and by less over ``spread``
     frames each side (a tent), so the cut leaves no dip; after each round the weight changes by at most
     1 / (2 ``spread`` + 2) per frame (:func:`slope_limited`), so cuts repeated over rounds leave no steep edge
     (a knee snapping back to its correction); frames where ``locked`` equals ``generated`` (keyframes among
-    them) are returned exactly."""
+    them) are returned exactly. Each round poses the legs alone (:func:`_leg_joints`), not the skeleton."""
     if iterations <= 0:
         return locked
-
-    def steps(g):  # (T-1, legs): each leg's longest joint step (knee, ankle, toe)
-        chain = jnp.stack([g[:, jnp.asarray(leg[1:4])] for leg in legs], 1)  # (T, legs, 3, 3)
-        return jnp.linalg.norm(chain[1:] - chain[:-1], axis=-1).max(-1)
-
-    steps_generated = jnp.linalg.norm(generated_positions[1:] - generated_positions[:-1], axis=-1)
+    global_rotations, global_positions = generated_global
+    steps_generated = jnp.linalg.norm(global_positions[1:] - global_positions[:-1], axis=-1)
     bound = jnp.maximum(steps_generated.max(), floor)
     joints = [jnp.asarray(leg[:3]) for leg in legs]
 
-    def blend(weight):  # weight: (T, legs) the share of each leg's correction kept
-        out = locked
+    def blended(weight):  # [(T, 3, 4) each leg's hip, knee and ankle rotations]; weight (T, legs): the share kept
+        out = []
         for k, j in enumerate(joints):
             a, b = generated[:, j], same_hemisphere(locked[:, j], generated[:, j])
-            w = weight[:, k, None, None]
-            mixed = (1.0 - w) * a + w * b
-            out = out.at[:, j].set(mixed / jnp.linalg.norm(mixed, axis=-1, keepdims=True))
+            mixed = (1.0 - weight[:, k, None, None]) * a + weight[:, k, None, None] * b
+            out.append(mixed / jnp.linalg.norm(mixed, axis=-1, keepdims=True))
         return out
 
+    def too_long(weight):  # (T-1, legs): a step of the leg's knee, ankle or toe longer than the bound
+        longest = []
+        for leg, rotations in zip(legs, blended(weight)):
+            chain = _leg_joints(rotations, global_rotations[:, parents[leg[0]]], global_positions[:, leg[0]],
+                                local_positions, leg)
+            longest.append(jnp.linalg.norm(chain[1:] - chain[:-1], axis=-1).max(-1))
+        return jnp.stack(longest, -1) > bound
+
     def step(weight, _):
-        too_long = steps(forward_kinematics(blend(weight), local_positions, parents)[1]) > bound
-        none = jnp.zeros_like(too_long[:1])
-        frames = (jnp.concatenate([none, too_long]) | jnp.concatenate([too_long, none])).astype(weight.dtype)
+        cut_at = too_long(weight)
+        none = jnp.zeros_like(cut_at[:1])
+        frames = (jnp.concatenate([none, cut_at]) | jnp.concatenate([cut_at, none])).astype(weight.dtype)
         cut = weight * (1.0 - 0.5 * tent_max(frames, spread))  # cut smoothly over ``spread`` frames
         return slope_limited(cut, 0.5 / (spread + 1.0), 2 * spread + 2), None  # and rounds add no steep edge
 
     weight = jax.lax.scan(step, jnp.ones((locked.shape[0], len(legs)), locked.dtype), None, length=iterations)[0]
-    guarded = blend(weight)
+    guarded = locked
+    for j, rotations in zip(joints, blended(weight)):
+        guarded = guarded.at[:, j].set(rotations)
     same = jnp.all(locked == generated, axis=-1, keepdims=True)
     return jnp.where(same | jnp.all(weight >= 1.0, axis=1)[:, None, None], locked, guarded)
+
+
+def _leg_joints(rotations, parent_rotation, hip_position, local_positions, leg: tuple):
+    """(T, 3, 3) the global positions of one leg's knee, ankle and toe, posed by its hip, knee and ankle local
+    rotations ``rotations`` (T, 3, 4) below the hip's parent (its global rotation ``parent_rotation`` (T, 4);
+    the hip's global position ``hip_position`` (T, 3)); local_positions: (T, J, 3) bone offsets."""
+    rotation, position, out = parent_rotation, hip_position, []
+    for k, child in enumerate(leg[1:4]):
+        rotation = R.quat_mul(rotation, rotations[:, k])
+        position = position + R.quat_rotate(rotation, local_positions[:, child])
+        out.append(position)
+    return jnp.stack(out, 1)
 
 
 def slope_limited(weight, rate: float, frames: int):

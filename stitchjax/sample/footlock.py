@@ -32,8 +32,8 @@ A post-process over generated transitions (start keyframe, L generated frames, t
    below the ground is lifted the whole way (and out of the ground where it does not move), by at most
    ``max_lift``; next to a keyframe the clearance falls to ``key_clearance`` over ``clearance_key_frames``
    frames. The same rule as the foot-slide metric's (a foot low enough to count as on the ground must not
-   move) decides both the plants and the lifts. The jump guard (step 8) and ``replant_distance`` are off by
-   default: both lost on the validation split (results/2026-12-06_footlock_v5).
+   move) decides both the plants and the lifts. ``replant_distance`` is off by default: it lost on the
+   validation split (results/2026-12-06_footlock_v5).
 7. **Leg solve** (:mod:`stitchjax.sample.leg_ik`): hip, knee and ankle turned so the ankle reaches its target;
    bones keep their lengths exactly (only rotations change), the knee stays in the plane of the generated pose
    (pole vector, biased over the toes by ``pole_hint`` so a straight leg bends the right way), and the reach is
@@ -43,7 +43,10 @@ A post-process over generated transitions (start keyframe, L generated frames, t
    (:mod:`stitchjax.sample.foot_speed`): easing to a plant adds no joint jump.
 8. **Jump guard** (``foot_speed.guard_joint_jumps``, ``jump_guard`` rounds): where a leg joint still moves
    farther in one frame than any joint of the generated transition (and than ``jump_floor`` cm), the leg's
-   correction is cut there, so the pass never makes a fast transition's fastest motion faster.
+   correction is cut there, gradually, so the pass never makes a fast transition's fastest motion faster.
+   With the guard on (results/2026-12-06_footlock_v6) the correction's speed limit of step 7 is looser
+   (``correction_step`` 6 cm/frame): feet reach their plants and lifts sooner, and the guard catches the rare
+   step that then outruns the transition.
 
 Frames that no span, blend or lift touches, both keyframes among them, are returned bit for bit as given.
 The root, the upper body and every joint's offset are unchanged; only the hip, knee and ankle rotations of
@@ -165,11 +168,11 @@ class FootLockConfig:
     clearance_key_frames: int = 8
     key_clearance: float = 3.0
     pole_hint: float = 0.3
-    correction_step: float = 1.0
+    correction_step: float = 6.0
     knee_step: float = 6.0
     share_distance: float = 5.0
-    jump_guard: int = 0
-    jump_floor: float = 20.0
+    jump_guard: int = 8
+    jump_floor: float = 10.0
     up_axis: int = 1
 
     def __post_init__(self):
@@ -365,7 +368,7 @@ def _lock_one(rotations, root_positions, contacts, offsets, score, stay, legs: t
             stats[key].append(value)
     if config.jump_guard > 0:
         local_positions = jnp.broadcast_to(offsets, rotations.shape[:-1] + (3,)).at[:, 0].set(root_positions)
-        new_rotations = guard_joint_jumps(new_rotations, rotations, g_pos, local_positions, legs, parents,
+        new_rotations = guard_joint_jumps(new_rotations, rotations, (g_rot, g_pos), local_positions, legs, parents,
                                           config.jump_guard, config.jump_floor)
     return {"rotations": new_rotations, "root_positions": root_positions,
             **{key: jnp.stack(values, -1) for key, values in stats.items()}}
