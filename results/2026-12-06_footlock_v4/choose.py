@@ -36,11 +36,12 @@ SWING_RATIO = 1.15
 JUMP_RATIO = 1.05
 
 
-def swing_ratio(fields: dict) -> float:
-    """Largest joint jump of the locked synthetic stand-swing-stand transition over the generated one's."""
+def swing_ratio(fields: dict, scale: float = 1.0) -> float:
+    """Largest joint jump of the locked synthetic stand-swing-stand transition over the generated one's (the swing
+    at ``scale`` times its speed: version 6 checks 0.98 and 1.02 too)."""
     frames = 40
     t = np.arange(frames)
-    speed = 0.5 + np.where((t > 12) & (t < 28), 11.5 * np.sin(np.pi * (t - 12) / 16) ** 2, 0.0)
+    speed = 0.5 + np.where((t > 12) & (t < 28), 11.5 * scale * np.sin(np.pi * (t - 12) / 16) ** 2, 0.0)
     rotations, root = synthetic._pose(frames, knee_degrees=60.0)
     root[:, 2] = np.concatenate([[0.0], np.cumsum(speed[1:])])
     contacts = np.ones((frames, 2))

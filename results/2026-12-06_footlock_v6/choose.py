@@ -45,25 +45,9 @@ SWING_SCALES = (0.98, 1.0, 1.02)
 
 
 def swing_ratio(fields: dict) -> float:
-    """Rule 3's ratio: the largest joint jump of the locked synthetic stand-swing-stand transition over the
-    generated one's (version 4's ``swing_ratio``), the largest over the swing at ``SWING_SCALES`` times its speed."""
-    synthetic = v5.v4.synthetic
-    frames = 40
-    t = np.arange(frames)
-    ratios = []
-    for scale in SWING_SCALES:
-        speed = 0.5 + np.where((t > 12) & (t < 28), 11.5 * scale * np.sin(np.pi * (t - 12) / 16) ** 2, 0.0)
-        rotations, root = synthetic._pose(frames, knee_degrees=60.0)
-        root[:, 2] = np.concatenate([[0.0], np.cumsum(speed[1:])])
-        contacts = np.ones((frames, 2))
-        contacts[0] = contacts[-1] = 0.0
-        local = np.broadcast_to(synthetic.OFFSETS, rotations.shape[:-1] + (3,)).copy()
-        local[:, 0] = root
-        locked, _, _ = v5.v4.footlock.lock_transitions(rotations, local, contacts, synthetic.SKELETON, synthetic.FEET,
-                                                       v5.v4.footlock.FootLockConfig(**fields))
-        jump = lambda g: np.linalg.norm(np.diff(g, axis=0), axis=-1).max()  # noqa: E731
-        ratios.append(jump(synthetic._global_positions(locked, root)) / jump(synthetic._global_positions(rotations, root)))
-    return float(max(ratios))
+    """Rule 3's ratio: version 4's ``swing_ratio`` (the locked synthetic stand-swing-stand transition's largest
+    joint jump over the generated one's), the largest over the swing at ``SWING_SCALES`` times its speed."""
+    return max(v5.v4.swing_ratio(fields, scale) for scale in SWING_SCALES)
 
 
 def merged(paths, key: str) -> dict:
