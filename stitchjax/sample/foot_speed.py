@@ -100,16 +100,16 @@ def _limit_steps(x, allowed, anchor):
     return jnp.concatenate([backward, forward[-1:]])
 
 
-def guard_joint_jumps(locked, generated, generated_global, local_positions, legs: tuple, parents: tuple,
-                      iterations: int, floor: float = 0.0, spread: int = 3):
+def guard_joint_jumps(locked, generated, generated_global, offsets, legs: tuple, parents: tuple, iterations: int,
+                      floor: float = 0.0, spread: int = 3):
     """(T, J, 4) ``locked`` local rotations with no leg joint stepping farther in one frame than the largest
     step of any joint of the ``generated`` transition (T, J, 4; its global rotations and positions
     ``generated_global``: ((T, J, 4), (T, J, 3))), or than ``floor`` cm where that is more (so the pass never
-    makes a fast transition's fastest motion faster). local_positions: (T, J, 3) root positions and bone
-    offsets; legs: (hip, knee, ankle, toe, ...) per leg (:func:`leg_ik.leg_chains`; only their hip, knee and
-    ankle rotations may differ from ``generated``); parents: the skeleton's. Each of ``iterations`` rounds halves the leg's
-    correction (the weight of ``locked`` against ``generated`` in a normalised blend of its hip, knee and
-    ankle rotations) on both frames of every step of that leg still too long, and by less over ``spread``
+    makes a fast transition's fastest motion faster). offsets: (J, 3) bone offsets; legs: (hip, knee, ankle,
+    toe, ...) per leg (:func:`leg_ik.leg_chains`; only their hip, knee and ankle rotations may differ from
+    ``generated``); parents: the skeleton's. Each of ``iterations`` rounds halves the leg's correction (the
+    weight of ``locked`` against ``generated`` in a normalised blend of its hip, knee and ankle rotations) on
+    both frames of every step of that leg still too long, and by less over ``spread``
     frames each side (a tent), so the cut leaves no dip; after each round the weight changes by at most
     1 / (2 ``spread`` + 2) per frame (:func:`slope_limited`), so cuts repeated over rounds leave no steep edge
     (a knee snapping back to its correction); frames where ``locked`` equals ``generated`` (keyframes among
@@ -133,7 +133,7 @@ def guard_joint_jumps(locked, generated, generated_global, local_positions, legs
         longest = []
         for leg, rotations in zip(legs, blended(weight)):
             chain = _leg_joints(rotations, global_rotations[:, parents[leg[0]]], global_positions[:, leg[0]],
-                                local_positions, leg)
+                                offsets, leg)
             longest.append(jnp.linalg.norm(chain[1:] - chain[:-1], axis=-1).max(-1))
         return jnp.stack(longest, -1) > bound
 
@@ -152,14 +152,14 @@ def guard_joint_jumps(locked, generated, generated_global, local_positions, legs
     return jnp.where(same | jnp.all(weight >= 1.0, axis=1)[:, None, None], locked, guarded)
 
 
-def _leg_joints(rotations, parent_rotation, hip_position, local_positions, leg: tuple):
+def _leg_joints(rotations, parent_rotation, hip_position, offsets, leg: tuple):
     """(T, 3, 3) the global positions of one leg's knee, ankle and toe, posed by its hip, knee and ankle local
     rotations ``rotations`` (T, 3, 4) below the hip's parent (its global rotation ``parent_rotation`` (T, 4);
-    the hip's global position ``hip_position`` (T, 3)); local_positions: (T, J, 3) bone offsets."""
+    the hip's global position ``hip_position`` (T, 3)); offsets: (J, 3) bone offsets."""
     rotation, position, out = parent_rotation, hip_position, []
     for k, child in enumerate(leg[1:4]):
         rotation = R.quat_mul(rotation, rotations[:, k])
-        position = position + R.quat_rotate(rotation, local_positions[:, child])
+        position = position + R.quat_rotate(rotation, offsets[child])
         out.append(position)
     return jnp.stack(out, 1)
 

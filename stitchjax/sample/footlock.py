@@ -367,8 +367,7 @@ def _lock_one(rotations, root_positions, contacts, offsets, score, stay, legs: t
         for key, value in leg_stats.items():
             stats[key].append(value)
     if config.jump_guard > 0:
-        local_positions = jnp.broadcast_to(offsets, rotations.shape[:-1] + (3,)).at[:, 0].set(root_positions)
-        new_rotations = guard_joint_jumps(new_rotations, rotations, (g_rot, g_pos), local_positions, legs, parents,
+        new_rotations = guard_joint_jumps(new_rotations, rotations, (g_rot, g_pos), offsets, legs, parents,
                                           config.jump_guard, config.jump_floor)
     return {"rotations": new_rotations, "root_positions": root_positions,
             **{key: jnp.stack(values, -1) for key, values in stats.items()}}

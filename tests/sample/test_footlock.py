@@ -412,7 +412,7 @@ def test_jump_guard_keeps_leg_steps_within_the_generated_largest_step():
     assert step(locked) > bound + 10.0
     g_generated = forward_kinematics(jnp.asarray(generated), jnp.asarray(local, jnp.float32), PARENTS)
     guard = lambda q, rounds: np.asarray(foot_speed.guard_joint_jumps(  # noqa: E731
-        jnp.asarray(q), jnp.asarray(generated), g_generated, jnp.asarray(local, jnp.float32), legs, PARENTS, rounds))
+        jnp.asarray(q), jnp.asarray(generated), g_generated, jnp.asarray(OFFSETS, jnp.float32), legs, PARENTS, rounds))
     out = guard(locked, 12)
     assert step(out) <= bound + 0.05  # no step longer than the generated transition's longest
     np.testing.assert_array_equal(out[:5], locked[:5])  # frames away from the jump are returned exactly
