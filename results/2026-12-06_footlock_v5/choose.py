@@ -63,6 +63,43 @@ def default_sampling_jumps(fields: dict, cache_path: str, data: str, lengths) ->
     return out
 
 
+def candidate_rows(grid: dict, lengths, fields_of, swing_ratio) -> dict:
+    """{name: row} of every candidate of tune.py's ``grid`` over ``lengths``: its slide, its worst cost per
+    length, its largest joint jump, its swing ratio (``swing_ratio(fields)``) and "kept" by rules 1-3;
+    ``fields_of(name, per-length entries)`` gives the candidate's fields."""
+    model_jump = max(grid["lengths"][L]["model"]["max_joint_jump_cm"] for L in lengths)
+    rows = {}
+    for name in grid["lengths"][lengths[0]]:
+        if name == "model":
+            continue
+        per = {L: grid["lengths"][L][name] for L in lengths}
+        costs = {L: max(p[f"{k}_change_pct"] for k in ("ade", "slde", "npss", "apd")) for L, p in per.items()}
+        jump = max(p["max_joint_jump_cm"] for p in per.values())
+        fields = fields_of(name, per)
+        ratio = swing_ratio(fields)
+        worst = max(costs.values())
+        rows[name] = {"slide": float(np.mean([per[L]["foot_slide"] for L in SLIDE_LENGTHS])),
+                      "slide_by_length": {L: p["foot_slide"] for L, p in per.items()},
+                      "worst_cost_pct_by_length": costs, "worst_cost_pct": worst, "max_joint_jump_cm": jump,
+                      "swing_jump_ratio": ratio,
+                      "kept": worst <= COST_PCT and jump <= JUMP_RATIO * model_jump and ratio <= SWING_RATIO,
+                      "fields": fields}
+    return rows
+
+
+def first_at_default_sampling(rows: dict, cache_path: str, data: str, lengths):
+    """Rule 4: the kept rows in order of slide, each checked at the default sampling until one passes (its
+    name, or None); every row checked records its jumps and whether it is still kept."""
+    for name in sorted((k for k, v in rows.items() if v["kept"]), key=lambda k: rows[k]["slide"]):
+        jumps = default_sampling_jumps(rows[name]["fields"], cache_path, data, lengths)
+        ok = all(after <= JUMP_RATIO * before for before, after in jumps.values())
+        rows[name].update({"default_sampling_jump_cm": jumps, "kept": ok})
+        print(f"{name}: default sampling, largest joint jump (model, pass) by L: {jumps} -> {'kept' if ok else '-'}")
+        if ok:
+            return name
+    return None
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--validation", required=True, help="tune.py's JSON over candidates.json")
@@ -77,31 +114,9 @@ def main():
     complete = json.load(open(args.candidates)) if args.candidates else {}
     lengths = sorted(grid["lengths"], key=int)
     model_jump = max(grid["lengths"][L]["model"]["max_joint_jump_cm"] for L in lengths)
-    rows = {}
-    for name in grid["lengths"][lengths[0]]:
-        if name == "model":
-            continue
-        per = {L: grid["lengths"][L][name] for L in lengths}
-        costs = {L: max(p[f"{k}_change_pct"] for k in ("ade", "slde", "npss", "apd")) for L, p in per.items()}
-        jump = max(p["max_joint_jump_cm"] for p in per.values())
-        fields = complete.get(name, per[lengths[0]]["fields"])
-        ratio = v4.swing_ratio(fields)
-        worst = max(costs.values())
-        rows[name] = {"slide": float(np.mean([per[L]["foot_slide"] for L in SLIDE_LENGTHS])),
-                      "slide_by_length": {L: p["foot_slide"] for L, p in per.items()},
-                      "worst_cost_pct_by_length": costs, "worst_cost_pct": worst, "max_joint_jump_cm": jump,
-                      "swing_jump_ratio": ratio,
-                      "kept": worst <= COST_PCT and jump <= JUMP_RATIO * model_jump and ratio <= SWING_RATIO,
-                      "fields": fields}
-    choice = None
-    for name in sorted((k for k, v in rows.items() if v["kept"]), key=lambda k: rows[k]["slide"]):
-        jumps = default_sampling_jumps(rows[name]["fields"], args.default_cache, args.data, lengths)
-        ok = all(after <= JUMP_RATIO * before for before, after in jumps.values())
-        rows[name].update({"default_sampling_jump_cm": jumps, "kept": ok})
-        print(f"{name}: default sampling, largest joint jump (model, pass) by L: {jumps} -> {'kept' if ok else '-'}")
-        if ok:
-            choice = name
-            break
+    rows = candidate_rows(grid, lengths, lambda name, per: complete.get(name, per[lengths[0]]["fields"]),
+                          v4.swing_ratio)
+    choice = first_at_default_sampling(rows, args.default_cache, args.data, lengths)
     for name, row in sorted(rows.items(), key=lambda kv: kv[1]["slide"]):
         costs = " ".join(f"{c:+.1f}" for c in row["worst_cost_pct_by_length"].values())
         print(f"{name:>24}: slide {row['slide']:.3f}  worst cost by L {costs} %  jump "

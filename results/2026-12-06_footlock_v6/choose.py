@@ -76,38 +76,17 @@ def main():
     lengths = sorted(grid["lengths"], key=int)
     model_jump = max(grid["lengths"][L]["model"]["max_joint_jump_cm"] for L in lengths)
     model_knee = max(grid["lengths"][L]["model"]["max_knee_change_deg_per_frame"] for L in lengths)
-    rows = {}
-    for name in grid["lengths"][lengths[0]]:
-        if name == "model":
-            continue
+    rows = v5.candidate_rows(grid, lengths, lambda name, per: per[lengths[0]]["fields"], swing_ratio)
+    for name, row in rows.items():  # rules 5 and 6
         per = {L: grid["lengths"][L][name] for L in lengths}
-        costs = {L: max(p[f"{k}_change_pct"] for k in ("ade", "slde", "npss", "apd")) for L, p in per.items()}
-        jump = max(p["max_joint_jump_cm"] for p in per.values())
-        fields = per[lengths[0]]["fields"]
-        ratio = swing_ratio(fields)
-        worst = max(costs.values())
         artefact_ok = all(artefacts[name][key][0] <= v5.JUMP_RATIO * artefacts["model"][key][0]
                           for key in artefacts["model"])
         knee = max(p["max_knee_change_deg_per_frame"] for p in per.values())
         knee_ok = knee <= model_knee + KNEE_DEGREES and all(
             artefacts[name][key][1] <= artefacts["model"][key][1] + KNEE_DEGREES for key in artefacts["model"])
-        rows[name] = {"slide": float(np.mean([per[L]["foot_slide"] for L in v5.SLIDE_LENGTHS])),
-                      "slide_by_length": {L: p["foot_slide"] for L, p in per.items()},
-                      "worst_cost_pct_by_length": costs, "worst_cost_pct": worst, "max_joint_jump_cm": jump,
-                      "max_knee_change_deg": knee, "knee_ok": knee_ok,
-                      "swing_jump_ratio": ratio, "artefact_jumps_cm": artefacts[name], "artefact_ok": artefact_ok,
-                      "kept": (worst <= v5.COST_PCT and jump <= v5.JUMP_RATIO * model_jump
-                               and ratio <= v5.SWING_RATIO and artefact_ok and knee_ok),
-                      "fields": fields}
-    choice = None
-    for name in sorted((k for k, v in rows.items() if v["kept"]), key=lambda k: rows[k]["slide"]):
-        jumps = v5.default_sampling_jumps(rows[name]["fields"], args.default_cache, args.data, lengths)
-        ok = all(after <= v5.JUMP_RATIO * before for before, after in jumps.values())
-        rows[name].update({"default_sampling_jump_cm": jumps, "kept": ok})
-        print(f"{name}: default sampling, largest joint jump (model, pass) by L: {jumps} -> {'kept' if ok else '-'}")
-        if ok:
-            choice = name
-            break
+        row.update({"max_knee_change_deg": knee, "knee_ok": knee_ok, "artefact_jumps_cm": artefacts[name],
+                    "artefact_ok": artefact_ok, "kept": row["kept"] and artefact_ok and knee_ok})
+    choice = v5.first_at_default_sampling(rows, args.default_cache, args.data, lengths)
     for name, row in sorted(rows.items(), key=lambda kv: kv[1]["slide"]):
         costs = " ".join(f"{c:+.1f}" for c in row["worst_cost_pct_by_length"].values())
         art = max(v[0] for v in row["artefact_jumps_cm"].values())
