@@ -34,6 +34,9 @@ _spec.loader.exec_module(v4)
 COST_PCT, JUMP_RATIO, SWING_RATIO = v4.COST_PCT, v4.JUMP_RATIO, v4.SWING_RATIO
 SLIDE_LENGTHS = ("30", "50")
 DEFAULT_SAMPLING = {"noise_scale": 2.0, "noise_correlation": 0.95, "noise_ramp_steps": 4}
+# The package's defaults of these fields when the version 5 and 6 grids ran (version 6 changed them): the grids
+# recorded each candidate's fields relative to them, so they are put back under the recorded fields.
+GRID_DEFAULTS = {"correction_step": 1.0, "jump_guard": 0, "jump_floor": 20.0}
 
 
 def default_sampling_jumps(fields: dict, cache_path: str, data: str, lengths) -> dict:
@@ -66,7 +69,7 @@ def default_sampling_jumps(fields: dict, cache_path: str, data: str, lengths) ->
 def candidate_rows(grid: dict, lengths, fields_of, swing_ratio) -> dict:
     """{name: row} of every candidate of tune.py's ``grid`` over ``lengths``: its slide, its worst cost per
     length, its largest joint jump, its swing ratio (``swing_ratio(fields)``) and "kept" by rules 1-3;
-    ``fields_of(name, per-length entries)`` gives the candidate's fields."""
+    ``fields_of(name, per-length entries)`` gives the candidate's fields (``GRID_DEFAULTS`` fill the rest)."""
     model_jump = max(grid["lengths"][L]["model"]["max_joint_jump_cm"] for L in lengths)
     rows = {}
     for name in grid["lengths"][lengths[0]]:
@@ -75,7 +78,7 @@ def candidate_rows(grid: dict, lengths, fields_of, swing_ratio) -> dict:
         per = {L: grid["lengths"][L][name] for L in lengths}
         costs = {L: max(p[f"{k}_change_pct"] for k in ("ade", "slde", "npss", "apd")) for L, p in per.items()}
         jump = max(p["max_joint_jump_cm"] for p in per.values())
-        fields = fields_of(name, per)
+        fields = {**GRID_DEFAULTS, **fields_of(name, per)}
         ratio = swing_ratio(fields)
         worst = max(costs.values())
         rows[name] = {"slide": float(np.mean([per[L]["foot_slide"] for L in SLIDE_LENGTHS])),

@@ -3,6 +3,8 @@
 # settings chosen on the validation split at L = 10, 15, 30 and 50, then the subject5 test windows once.
 #   bash results/2026-12-06_footlock_v5/run.sh grid|choose|default_sampling|test|benchmark|hover|grid_first   (from the repository root)
 # DATA: the LAFAN1 folder (default ../shared/data/lafan1); CACHE: where the validation transitions are kept.
+# default_sampling, test, benchmark and hover measure the package's defaults of the checkout: version 5's are
+# those of `git checkout 1a3cbb1` (version 6 changed correction_step, jump_guard and jump_floor).
 set -euo pipefail
 HERE=results/2026-12-06_footlock_v5
 DATA=${DATA:-../shared/data/lafan1}
