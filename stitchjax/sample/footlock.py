@@ -189,6 +189,9 @@ class FootLockConfig:
                 or self.replant_gap < 1):
             raise ValueError("foot lock: bridge_frames, clearance, clearance_frames, clearance_key_frames, "
                              "key_clearance, max_lift must be >= 0, clearance_speed > 0, replant_gap >= 1")
+        if self.jump_guard < 0 or self.jump_floor < 0 or self.share_distance < 0:
+            raise ValueError(f"foot lock: jump_guard ({self.jump_guard}), jump_floor ({self.jump_floor}) and "
+                             f"share_distance ({self.share_distance}) must be >= 0")
 
 
 DEFAULT_CONFIG = FootLockConfig()

@@ -249,7 +249,8 @@ def test_clearance_lift_from_below_reaches_the_clearance_and_the_ground():
     above = np.asarray(foot_easing.clearance_lift(jnp.full(n, 1.0), still, jnp.ones(n), anchor, 4.0, 2.0, 2,
                                                   from_below=True))
     assert not above.any()  # a foot above the ground at rest is left alone
-    for bad in ({"max_lift": -1.0}, {"key_clearance": -1.0}, {"clearance_key_frames": -1}, {"replant_gap": 0}):
+    for bad in ({"max_lift": -1.0}, {"key_clearance": -1.0}, {"clearance_key_frames": -1}, {"replant_gap": 0},
+                {"jump_guard": -1}, {"jump_floor": -1.0}, {"share_distance": -1.0}):
         with pytest.raises(ValueError, match="foot lock"):
             footlock.FootLockConfig(**bad)
 
