@@ -12,5 +12,9 @@ get_config = variant(
     "loss.foot_skate_weight=0",
     "loss.foot_skate_contacts=truth",  # inert at weight 0; the value the run had
     "model.contact_input_gradient=false",
+    # the release recipe's schedule when this ran (it trains longer since: results/2026-12-05_release_25k)
+    "train.max_steps=20000",
+    "train.lr_decay_from_step=8000",
+    "train.lr_decay_until_step=19000",
     name="lafan1_cpu_release_v2",
 )
