@@ -13,11 +13,16 @@
 #   curve    the recipe's, then cumulative_time.py (the run was trained in three parts)
 # grid, choose, test_default, release and picture run only when compare said replace.
 #   DATA=/path/to/lafan1 RUNS=/path/to/runs bash results/2026-12-05_release_25k/run.sh [STAGE ...]
+# A later, longer run reuses these stages with HERE (its folder, holding its cumulative_time.py), CONFIG, RUN, MODEL
+# and BASELINE (the release model's validation_paper.json that compare holds it against) set:
+# results/2026-12-06_release_40k/run.sh does.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-HERE=results/2026-12-05_release_25k
+HERE=${HERE:-results/2026-12-05_release_25k}
 RUNS=${RUNS:?set RUNS to a folder for the run}
-export OUT=$HERE CONFIG=$HERE/lafan1_cpu_release_25k.py RUN=$RUNS/release_25k MODEL=$RUNS/release_25k_model FOOT_LOCK=both
+BASELINE=${BASELINE:-results/2026-12-04_release_recipe/validation_paper.json}
+export OUT=$HERE CONFIG=${CONFIG:-$HERE/lafan1_cpu_release_25k.py} RUN=${RUN:-$RUNS/release_25k} \
+    MODEL=${MODEL:-$RUNS/release_25k_model} FOOT_LOCK=both
 STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(train export validation curve compare test grid choose test_default release picture)
 log() { echo "$(date -u +%FT%T) $*" | tee -a "$HERE/log.txt"; }
 replace() { python -c "import json, sys; sys.exit(0 if json.load(open('$HERE/decision.json'))['replace'] else 1)"; }
@@ -29,8 +34,7 @@ curve)  # the recipe's curve, then its times made cumulative over the run's thre
   bash results/2026-12-04_release_recipe/run.sh curve
   python $HERE/cumulative_time.py $HERE/summary_validation.json ;;
 compare)
-  python results/2026-12-05_release_v2/compare.py results/2026-12-04_release_recipe/validation_paper.json \
-      $HERE/validation_paper.json --out $HERE/decision.json ;;
+  python results/2026-12-05_release_v2/compare.py "$BASELINE" $HERE/validation_paper.json --out $HERE/decision.json ;;
 grid)  # the recipe's grid stage on one family
   GRID="0.95 4" bash results/2026-12-04_release_recipe/run.sh grid
   # the paper's sampling is a candidate too (in the release recipe's grid it was the x1 row of "rho 0, ramp 0"),
@@ -42,6 +46,6 @@ release)
       --sampling "$S,$R,$K" --sampling-note "chosen on the validation split: $HERE/sampling_choice.json"
   log "release: bin/export --run $RUN --out stitchjax/pretrained/lafan1_cpu_release --config-name lafan1_cpu_release --sampling $S,$R,$K" ;;
 picture)
-  python $HERE/picture.py --out $HERE/picture_spread.json --figure docs/images/samples.png ;;
+  python results/2026-12-05_release_25k/picture.py --out $HERE/picture_spread.json --figure docs/images/samples.png ;;
 *) bash results/2026-12-04_release_recipe/run.sh "$stage" ;;
 esac; done
