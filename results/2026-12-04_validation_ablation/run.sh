@@ -31,10 +31,14 @@ declare -A ROWS=(
   [recipe_no_foot_skate_seed1]="--config lafan1_cpu_release loss.foot_skate_weight=0 train.seed=1"
   # the recipe itself from a second seed: how far seed noise moves the row every other row is compared with
   [recipe_seed1]="--config lafan1_cpu_release train.seed=1"
+  # the state and FK terms weighted 4x on each direction's first generated frame (the backward one is the frame
+  # SLDE scores), from both seeds
+  [recipe_near_keyframe4]="--config lafan1_cpu_release loss.near_keyframe_weight=4"
+  [recipe_near_keyframe4_seed1]="--config lafan1_cpu_release loss.near_keyframe_weight=4 train.seed=1"
 )
 ORDER=(paper extra extra_starts extra_starts_mirror recipe recipe_posterior_none recipe_no_foot_terms recipe_paper_kl
        recipe_no_prior_samples recipe_no_foot_velocity recipe_no_foot_skate recipe_no_contact_gradient
-       recipe_next recipe_no_foot_skate_seed1 recipe_seed1)
+       recipe_next recipe_no_foot_skate_seed1 recipe_seed1 recipe_near_keyframe4 recipe_near_keyframe4_seed1)
 [ $# -gt 0 ] && ORDER=("$@")
 for row in "${ORDER[@]}"; do
   out=$HERE/$row.json
