@@ -1,0 +1,32 @@
+"""Make the validation curve's times cumulative over a run's parts, then redraw the curve: the 25000-step study's
+script, with the parts read from the run's metrics.jsonl instead of written in (bin/train's time_s restarts at 0
+on each resume; a part ends at the last step it logged before the next part's first).
+
+    RUN=runs/release_nk4 python results/2026-12-06_release_near_keyframe/cumulative_time.py SUMMARY_JSON
+"""
+import importlib.util
+import json
+import os
+import sys
+
+
+def parts(metrics_path):
+    """((the step a part ended at, its loop time in s), ...) for every part but the last."""
+    found, last = [], None
+    for line in open(metrics_path):
+        row = json.loads(line)
+        if "time_s" not in row:
+            continue
+        if last is not None and row["time_s"] < last["time_s"]:
+            found.append((last["step"], last["time_s"]))
+        last = row
+    return tuple(found)
+
+
+if __name__ == "__main__":
+    spec = importlib.util.spec_from_file_location("cumulative_25k", "results/2026-12-05_release_25k/cumulative_time.py")
+    cumulative = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(cumulative)
+    cumulative.PARTS = parts(os.path.join(os.environ["RUN"], "metrics.jsonl"))
+    print("parts:", cumulative.PARTS)
+    cumulative.main(sys.argv[1])
