@@ -14,8 +14,8 @@
 # grid, choose, test_default, release and picture run only when compare said replace.
 #   DATA=/path/to/lafan1 RUNS=/path/to/runs bash results/2026-12-05_release_25k/run.sh [STAGE ...]
 # A later, longer run reuses these stages with HERE (its folder, holding its cumulative_time.py), CONFIG, RUN, MODEL
-# and BASELINE (the release model's validation_paper.json that compare holds it against) set:
-# results/2026-12-06_release_40k/run.sh does.
+# and BASELINE (the release model's validation_paper.json that compare holds it against) set, and GATED (the
+# stages that run only when compare said replace) if it differs: results/2026-12-06_release_40k/run.sh does.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 HERE=${HERE:-results/2026-12-05_release_25k}
@@ -23,12 +23,14 @@ RUNS=${RUNS:?set RUNS to a folder for the run}
 BASELINE=${BASELINE:-results/2026-12-04_release_recipe/validation_paper.json}
 export OUT=$HERE CONFIG=${CONFIG:-$HERE/lafan1_cpu_release_25k.py} RUN=${RUN:-$RUNS/release_25k} \
     MODEL=${MODEL:-$RUNS/release_25k_model} FOOT_LOCK=both
+GATED=${GATED:-grid choose test_default release picture}  # the stages that run only when compare said replace
 STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(train export validation curve compare test grid choose test_default release picture)
 log() { echo "$(date -u +%FT%T) $*" | tee -a "$HERE/log.txt"; }
 replace() { python -c "import json, sys; sys.exit(0 if json.load(open('$HERE/decision.json'))['replace'] else 1)"; }
 for stage in "${STAGES[@]}"; do
-case $stage in grid|choose|test_default|release|picture)
-  replace || { log "$stage: skipped, the release model stays (decision.json)"; continue; } ;; esac
+if [[ " $GATED " == *" $stage "* ]]; then
+  replace || { log "$stage: skipped, the release model stays (decision.json)"; continue; }
+fi
 case $stage in
 curve)  # the recipe's curve, then its times made cumulative over the run's three parts
   bash results/2026-12-04_release_recipe/run.sh curve

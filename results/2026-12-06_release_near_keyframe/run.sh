@@ -11,10 +11,5 @@ HERE=results/2026-12-06_release_near_keyframe
 RUNS=${RUNS:?set RUNS to a folder for the run}
 export HERE CONFIG=$HERE/lafan1_cpu_release_nk4.py RUN=$RUNS/release_nk4 MODEL=$RUNS/release_nk4_model \
     BASELINE=results/2026-12-06_release_40k/validation_paper.json
-STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(train export validation curve compare test grid choose test_default release picture)
-for stage in "${STAGES[@]}"; do
-  if [ "$stage" = test ] && ! python -c "import json, sys; sys.exit(0 if json.load(open('$HERE/decision.json'))['replace'] else 1)"; then
-    echo "$(date -u +%FT%T) test: skipped, the release model stays (decision.json)" | tee -a $HERE/log.txt; continue
-  fi
-  bash results/2026-12-05_release_25k/run.sh "$stage"
-done
+export GATED="test grid choose test_default release picture"  # the test set too is read only for a replacing model
+exec bash results/2026-12-05_release_25k/run.sh "$@"
