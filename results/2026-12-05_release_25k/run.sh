@@ -13,7 +13,8 @@
 #   curve    the recipe's, then cumulative_time.py (the run was trained in three parts)
 # grid, choose, test_default, release and picture run only when compare said replace.
 #   DATA=/path/to/lafan1 RUNS=/path/to/runs bash results/2026-12-05_release_25k/run.sh [STAGE ...]
-# A later, longer run reuses these stages with HERE (its folder, holding its cumulative_time.py), CONFIG, RUN, MODEL
+# A later, longer run reuses these stages with HERE (its folder), CUMULATIVE (the curve stage's script, default
+# $HERE/cumulative_time.py), CONFIG, RUN, MODEL
 # and BASELINE (the release model's validation_paper.json that compare holds it against) set, and GATED (the
 # stages that run only when compare said replace) if it differs: results/2026-12-06_release_40k/run.sh does.
 set -euo pipefail
@@ -34,7 +35,7 @@ fi
 case $stage in
 curve)  # the recipe's curve, then its times made cumulative over the run's three parts
   bash results/2026-12-04_release_recipe/run.sh curve
-  python $HERE/cumulative_time.py $HERE/summary_validation.json ;;
+  python "${CUMULATIVE:-$HERE/cumulative_time.py}" $HERE/summary_validation.json ;;
 compare)
   python results/2026-12-05_release_v2/compare.py "$BASELINE" $HERE/validation_paper.json --out $HERE/decision.json ;;
 grid)  # the recipe's grid stage on one family
