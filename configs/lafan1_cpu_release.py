@@ -23,6 +23,9 @@ on validation but its feet slide more at L = 50 (0.92 against 0.82 of interpolat
 rule allowed: this recipe stays the release one. Trained 1.25 times as long (25000 steps, the decay stretched
 with them; results/2026-12-05_release_25k), it replaced its 20000-step model by the same rule, and trained 1.6
 times as long again (40000 steps; results/2026-12-06_release_40k), it replaced the 25000-step model.
+With the state and FK terms 4x on each direction's first generated frame (loss.near_keyframe_weight=4;
+results/2026-12-06_release_near_keyframe) its SLDE on validation is 5-6 % lower, but its foot slide at L = 50
+misses that rule's margin by 0.001: not adopted.
 """
 from stitchjax.config import variant
 
