@@ -1,6 +1,7 @@
 """Test setup: CPU only, persistent compilation cache, shared data location."""
 import os
 import pathlib
+import sys
 
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 os.environ.setdefault(
@@ -53,3 +54,15 @@ def save_tiny_checkpoint(workdir, seed: int = 0) -> pathlib.Path:
 def tiny_run(tmp_path_factory) -> pathlib.Path:
     """A run folder holding an untrained `tiny` model: enough to exercise loading and inference."""
     return save_tiny_checkpoint(tmp_path_factory.mktemp("tiny_run"))
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionfinish(session):
+    """On a pytest-xdist worker, free JAX's compiled programs before the worker reports that it is done: the
+    controller interrupts a worker still busy 5 s after that, which a late collection of thousands of
+    executables can be."""
+    if os.environ.get("PYTEST_XDIST_WORKER") and "jax" in sys.modules:
+        import gc
+
+        sys.modules["jax"].clear_caches()
+        gc.collect()
