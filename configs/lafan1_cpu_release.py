@@ -22,10 +22,11 @@ Trained without those two for the whole 20000 steps (results/2026-12-05_release_
 on validation but its feet slide more at L = 50 (0.92 against 0.82 of interpolation's), past the margin its
 rule allowed: this recipe stays the release one. Trained 1.25 times as long (25000 steps, the decay stretched
 with them; results/2026-12-05_release_25k), it replaced its 20000-step model by the same rule, and trained 1.6
-times as long again (40000 steps; results/2026-12-06_release_40k), it replaced the 25000-step model.
-With the state and FK terms 4x on each direction's first generated frame (loss.near_keyframe_weight=4;
-results/2026-12-06_release_near_keyframe) its SLDE on validation is 5-6 % lower, but its foot slide at L = 50
-misses that rule's margin by 0.001: not adopted.
+times as long again (40000 steps; results/2026-12-06_release_40k), it replaced the 25000-step model, and at
+64000 steps (results/2026-12-07_release_64k) it replaced the 40000-step model.
+At 40000 steps with the state and FK terms 4x on each direction's first generated frame
+(loss.near_keyframe_weight=4; results/2026-12-06_release_near_keyframe) its SLDE on validation is 5-6 % lower,
+but its foot slide at L = 50 misses that rule's margin by 0.001: not adopted.
 """
 from stitchjax.config import variant
 
@@ -48,13 +49,13 @@ get_config = variant(
     "loss.foot_skate_weight=128",
     "loss.foot_velocity_weight=16",
     "train.length_after_schedule=uniform",
-    # schedule: 40000 steps, the learning rate decayed over steps 16000-38000; about 2.3 h of training loop on
-    # 2 CPU cores (0.21 s a step), resumable across stops
+    # schedule: 64000 steps, the learning rate decayed over steps 25600-60800; about 4.4 h of training loop on
+    # 2 CPU cores (0.245 s a step, validation included), resumable across stops
     "train.learning_rate=5e-4",
     "train.lr_decay_to=0.05",
-    "train.lr_decay_from_step=16000",
-    "train.lr_decay_until_step=38000",
-    "train.max_steps=40000",
+    "train.lr_decay_from_step=25600",
+    "train.lr_decay_until_step=60800",
+    "train.max_steps=64000",
     "train.checkpoint_every_steps=500",
     "train.eval_every=1000",
     "train.eval_windows=64",

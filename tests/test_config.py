@@ -180,7 +180,7 @@ def test_every_named_config_keeps_its_values():
     assert (cpu.model.lstm_size, cpu.train.learning_rate, cpu.train.length_buckets, cpu.train.max_steps) == (
         256, 5e-4, (15, 30, 50), 3000)
     release = configs["lafan1_cpu_release"]
-    assert release.data.validation_files == cpu.data.validation_files and release.train.max_steps == 40000
+    assert release.data.validation_files == cpu.data.validation_files and release.train.max_steps == 64000
     assert (release.loss.kl_weight, release.loss.foot_skate_weight, release.train.lr_decay_to) == (0.1, 128.0, 0.05)
 
 

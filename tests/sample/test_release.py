@@ -54,6 +54,14 @@ def test_release_model_loads_samples_and_keeps_both_keyframes_exact(release, tak
     assert np.abs(clip.global_positions()[130] - ends[1]).max() < TOL_CM
 
 
+def test_release_model_is_what_the_release_config_trains(release):
+    """One recipe: the shipped model's config is configs/lafan1_cpu_release field for field (bin/export
+    --config-name renames the run's own config, which must then equal the named one)."""
+    from stitchjax import config as config_lib
+
+    assert release.config == config_lib.load_config("lafan1_cpu_release")
+
+
 def test_release_folder_holds_only_what_sampling_needs():
     assert sorted(p.name for p in RELEASE.iterdir()) == ["model.json", "params.msgpack"]
     assert sum(p.stat().st_size for p in RELEASE.iterdir()) < 10 * 2**20
