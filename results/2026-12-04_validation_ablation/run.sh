@@ -35,10 +35,15 @@ declare -A ROWS=(
   # SLDE scores), from both seeds
   [recipe_near_keyframe4]="--config lafan1_cpu_release loss.near_keyframe_weight=4"
   [recipe_near_keyframe4_seed1]="--config lafan1_cpu_release loss.near_keyframe_weight=4 train.seed=1"
+  # the width: the recipe at half the CPU widths, and at the widths of the GPU config lafan1 (the paper does not
+  # give them; config.py's defaults)
+  [recipe_half_width]="--config lafan1_cpu_release model.encoder_widths=64,64,64 model.lstm_size=128 model.decoder_widths=128,128 model.gating_widths=16,16 model.disc_widths=64,32"
+  [recipe_lafan1_width]="--config lafan1_cpu_release model.encoder_widths=512,512,256 model.lstm_size=512 model.decoder_widths=512,512 model.gating_widths=64,64 model.disc_widths=512,256"
 )
 ORDER=(paper extra extra_starts extra_starts_mirror recipe recipe_posterior_none recipe_no_foot_terms recipe_paper_kl
        recipe_no_prior_samples recipe_no_foot_velocity recipe_no_foot_skate recipe_no_contact_gradient
-       recipe_next recipe_no_foot_skate_seed1 recipe_seed1 recipe_near_keyframe4 recipe_near_keyframe4_seed1)
+       recipe_next recipe_no_foot_skate_seed1 recipe_seed1 recipe_near_keyframe4 recipe_near_keyframe4_seed1
+       recipe_half_width recipe_lafan1_width)
 [ $# -gt 0 ] && ORDER=("$@")
 for row in "${ORDER[@]}"; do
   out=$HERE/$row.json
