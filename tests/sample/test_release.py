@@ -134,6 +134,17 @@ def test_export_round_trip_and_clear_errors(tiny_run, tmp_path, capsys):
     (tmp_path / "a_file").write_text("")
     assert cli.main(["--run", str(tiny_run), "--out", str(tmp_path / "a_file")]) == 2
     assert "is a file, not a folder" in capsys.readouterr().err
+    # --config-name: a config of configs/ only when the run's config equals it (tiny's does; the release
+    # recipe's does not, and nothing is written), any other name as a free label
+    assert cli.main(["--run", str(tiny_run), "--out", str(tmp_path / "named"), "--config-name", "tiny"]) == 0
+    assert trained_model.load_model(tmp_path / "named").config == source.config
+    capsys.readouterr()
+    assert cli.main(["--run", str(tiny_run), "--out", str(tmp_path / "mislabelled"),
+                     "--config-name", "lafan1_cpu_release"]) == 2
+    assert "not trained by configs/lafan1_cpu_release.py" in capsys.readouterr().err
+    assert not (tmp_path / "mislabelled").exists()
+    assert cli.main(["--run", str(tiny_run), "--out", str(tmp_path / "label"), "--config-name", "my_label"]) == 0
+    assert trained_model.load_model(tmp_path / "label").config.name == "my_label"
     (out / "model.json").write_text(json.dumps({"format": "something else"}))
     with pytest.raises(trained_model.InbetweenError, match="export the model again"):
         trained_model.load_model(out)
