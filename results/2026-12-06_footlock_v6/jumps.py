@@ -46,16 +46,22 @@ def main(argv=None):
     parser.add_argument("--data", default="../shared/data/lafan1")
     parser.add_argument("--cache", required=True, help=".npz prefix: <cache>_<sampling>.npz, sampled when missing")
     parser.add_argument("--candidates", required=True, help="JSON file {name: {FootLockConfig field: value}}")
+    parser.add_argument("--default-sampling", default=None,
+                        help="JSON of the default sampling's fields, in place of SAMPLINGS['default'] (a later "
+                             "release model's default)")
     parser.add_argument("--json", required=True)
     args = parser.parse_args(argv)
+    samplings = dict(SAMPLINGS)
+    if args.default_sampling:
+        samplings["default"] = json.loads(args.default_sampling)
     t0 = time.time()
     windows = lafan1.build_windows([os.path.join(args.data, f"{t}.bvh") for t in TAKES], 65, 40, workers=1)
     parents = tuple(windows.skeleton.parents)
     rot, pos, con = (np.asarray(x, np.float64) for x in (windows.rotations, windows.positions, windows.contacts))
     candidates = json.load(open(args.candidates))
-    out = {"takes": TAKES, "windows": int(len(rot)), "samples": 10, "samplings": SAMPLINGS, "rows": {}}
+    out = {"takes": TAKES, "windows": int(len(rot)), "samples": 10, "samplings": samplings, "rows": {}}
     model = None
-    for sampling, kwargs in SAMPLINGS.items():
+    for sampling, kwargs in samplings.items():
         path = f"{os.path.splitext(args.cache)[0]}_{sampling}.npz"
         if os.path.exists(path):
             cache = dict(np.load(path))

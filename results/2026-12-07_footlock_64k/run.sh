@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Foot locking's defaults (version 6, chosen on the 25000-step model: results/2026-12-06_footlock_v6) checked on
+# the 64000-step release model by version 6's rule, on non-test windows only, with its scripts:
+#   validation  tune.py: the validation split at L = 10, 15, 30, 50, the paper's sampling (costs, slide, jumps, knees)
+#   default     tune.py: the same at the release model's default sampling (its model.json), cached for choose
+#   artefacts   jumps.py: the artefact set of training takes, the paper's and the default sampling
+#   choose      choose.py: version 6's six rules on the one candidate, the defaults
+#   hover       hover.py: how often a foot is left hovering, validation, the paper's sampling
+#   bash results/2026-12-07_footlock_64k/run.sh [STAGE ...]   (from the repository root)
+# DATA: the LAFAN1 folder (default ../shared/data/lafan1); CACHE: where the transitions are kept.
+set -euo pipefail
+HERE=results/2026-12-07_footlock_64k
+V6=results/2026-12-06_footlock_v6
+DATA=${DATA:-../shared/data/lafan1}
+CACHE=${CACHE:-/tmp/footlock_64k_validation.npz}
+DEFAULT=$(python -c "import json; s=json.load(open('stitchjax/pretrained/lafan1_cpu_release/model.json'))['sampling']; print(json.dumps({k: s[k] for k in ('noise_scale', 'noise_correlation', 'noise_ramp_steps')}))")
+log() { echo "$(date -u +%FT%T) $*" | tee -a "$HERE/log.txt"; }
+timed() { local name=$1; shift; local start; start=$(date +%s); "$@"; log "$name: $(( $(date +%s) - start )) s: $* (commit $(git rev-parse --short HEAD))"; }
+STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(validation default artefacts choose hover)
+for stage in "${STAGES[@]}"; do case $stage in
+  validation) timed validation python results/2026-12-04_footlock/tune.py --data "$DATA" --cache "$CACHE" \
+      --lengths 10,15,30,50 --variants "$(cat $HERE/candidates.json)" --json $HERE/validation.json ;;
+  default) timed default python results/2026-12-04_footlock/tune.py --data "$DATA" --cache "${CACHE%.npz}_default_sampling.npz" \
+      --lengths 10,15,30,50 --sampling "$DEFAULT" --variants "$(cat $HERE/candidates.json)" \
+      --json $HERE/validation_default_sampling.json ;;
+  artefacts) timed artefacts python $V6/jumps.py --data "$DATA" --cache "${CACHE%.npz}_artefacts.npz" \
+      --candidates $HERE/candidates.json --default-sampling "$DEFAULT" --json $HERE/artefact_jumps.json ;;
+  choose) timed choose python $V6/choose.py --data "$DATA" --validation $HERE/validation.json \
+      --artefacts $HERE/artefact_jumps.json --default-cache "${CACHE%.npz}_default_sampling.npz" --json $HERE/choice.json ;;
+  hover) timed hover python results/2026-12-06_footlock_v5/hover.py --data "$DATA" --cache "$CACHE" \
+      --json $HERE/hover_validation.json ;;
+  *) echo "usage: $0 [validation|default|artefacts|choose|hover ...]" >&2; exit 2 ;;
+esac; done
