@@ -6,6 +6,10 @@
 #   artefacts   jumps.py: the artefact set of training takes, the paper's and the default sampling
 #   choose      choose.py: version 6's six rules on the one candidate, the defaults
 #   hover       hover.py: how often a foot is left hovering, validation, the paper's sampling
+#   grid        tune.py: version 6's 15 candidates (its candidates.json and candidates_second.json) on the
+#               validation cache of the validation stage
+#   grid_artefacts  jumps.py: the same candidates on the artefact set, both samplings
+#   grid_choose     choose.py: version 6's rule over them (grid_choice.json)
 #   bash results/2026-12-07_footlock_64k/run.sh [STAGE ...]   (from the repository root)
 # DATA: the LAFAN1 folder (default ../shared/data/lafan1); CACHE: where the transitions are kept.
 set -euo pipefail
@@ -27,7 +31,19 @@ for stage in "${STAGES[@]}"; do case $stage in
       --candidates $HERE/candidates.json --default-sampling "$DEFAULT" --json $HERE/artefact_jumps.json ;;
   choose) timed choose python $V6/choose.py --data "$DATA" --validation $HERE/validation.json \
       --artefacts $HERE/artefact_jumps.json --default-cache "${CACHE%.npz}_default_sampling.npz" --json $HERE/choice.json ;;
+  grid) for list in candidates candidates_second; do
+      timed "grid $list" python results/2026-12-04_footlock/tune.py --data "$DATA" --cache "$CACHE" \
+        --lengths 10,15,30,50 --variants "$(cat $V6/$list.json)" --json $HERE/grid_$list.json
+    done ;;
+  grid_artefacts) for list in candidates candidates_second; do
+      timed "grid_artefacts $list" python $V6/jumps.py --data "$DATA" --cache "${CACHE%.npz}_artefacts.npz" \
+        --candidates $V6/$list.json --default-sampling "$DEFAULT" --json $HERE/grid_artefact_jumps_$list.json
+    done ;;
+  grid_choose) timed grid_choose python $V6/choose.py --data "$DATA" \
+      --validation $HERE/grid_candidates.json $HERE/grid_candidates_second.json \
+      --artefacts $HERE/grid_artefact_jumps_candidates.json $HERE/grid_artefact_jumps_candidates_second.json \
+      --default-cache "${CACHE%.npz}_default_sampling.npz" --json $HERE/grid_choice.json ;;
   hover) timed hover python results/2026-12-06_footlock_v5/hover.py --data "$DATA" --cache "$CACHE" \
       --json $HERE/hover_validation.json ;;
-  *) echo "usage: $0 [validation|default|artefacts|choose|hover ...]" >&2; exit 2 ;;
+  *) echo "usage: $0 [validation|default|artefacts|choose|hover|grid|grid_artefacts|grid_choose ...]" >&2; exit 2 ;;
 esac; done
