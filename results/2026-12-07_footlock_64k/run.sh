@@ -7,7 +7,7 @@
 #   choose      choose.py: version 6's six rules on the one candidate, the defaults
 #   hover       hover.py: how often a foot is left hovering, validation, the paper's sampling
 #   grid        tune.py: version 6's 15 candidates (its candidates.json and candidates_second.json) on the
-#               validation cache of the validation stage
+#               validation split's transitions (CACHE, shared with the validation stage; sampled when missing)
 #   grid_artefacts  jumps.py: the same candidates on the artefact set, both samplings
 #   grid_choose     choose.py: version 6's rule over them (grid_choice.json)
 #   bash results/2026-12-07_footlock_64k/run.sh [STAGE ...]   (from the repository root)
@@ -20,24 +20,28 @@ CACHE=${CACHE:-/tmp/footlock_64k_validation.npz}
 DEFAULT=$(python -c "import json; s=json.load(open('stitchjax/pretrained/lafan1_cpu_release/model.json'))['sampling']; print(json.dumps({k: s[k] for k in ('noise_scale', 'noise_correlation', 'noise_ramp_steps')}))")
 log() { echo "$(date -u +%FT%T) $*" | tee -a "$HERE/log.txt"; }
 timed() { local name=$1; shift; local start; start=$(date +%s); "$@"; log "$name: $(( $(date +%s) - start )) s: $* (commit $(git rev-parse --short HEAD))"; }
+tune() {  # tune NAME CANDIDATES OUT [tune.py args]: the candidates on the validation split at L = 10, 15, 30, 50
+  local name=$1 candidates=$2 out=$3; shift 3
+  timed "$name" python results/2026-12-04_footlock/tune.py --data "$DATA" --lengths 10,15,30,50 \
+      --variants "$(cat "$candidates")" --json "$out" "$@"
+}
+jumps() {  # jumps NAME CANDIDATES OUT: the candidates on the artefact set, the paper's and the default sampling
+  timed "$1" python $V6/jumps.py --data "$DATA" --cache "${CACHE%.npz}_artefacts.npz" --candidates "$2" \
+      --default-sampling "$DEFAULT" --json "$3"
+}
 STAGES=("$@"); [ ${#STAGES[@]} -eq 0 ] && STAGES=(validation default artefacts choose hover)
 for stage in "${STAGES[@]}"; do case $stage in
-  validation) timed validation python results/2026-12-04_footlock/tune.py --data "$DATA" --cache "$CACHE" \
-      --lengths 10,15,30,50 --variants "$(cat $HERE/candidates.json)" --json $HERE/validation.json ;;
-  default) timed default python results/2026-12-04_footlock/tune.py --data "$DATA" --cache "${CACHE%.npz}_default_sampling.npz" \
-      --lengths 10,15,30,50 --sampling "$DEFAULT" --variants "$(cat $HERE/candidates.json)" \
-      --json $HERE/validation_default_sampling.json ;;
-  artefacts) timed artefacts python $V6/jumps.py --data "$DATA" --cache "${CACHE%.npz}_artefacts.npz" \
-      --candidates $HERE/candidates.json --default-sampling "$DEFAULT" --json $HERE/artefact_jumps.json ;;
+  validation) tune validation $HERE/candidates.json $HERE/validation.json --cache "$CACHE" ;;
+  default) tune default $HERE/candidates.json $HERE/validation_default_sampling.json \
+      --cache "${CACHE%.npz}_default_sampling.npz" --sampling "$DEFAULT" ;;
+  artefacts) jumps artefacts $HERE/candidates.json $HERE/artefact_jumps.json ;;
   choose) timed choose python $V6/choose.py --data "$DATA" --validation $HERE/validation.json \
       --artefacts $HERE/artefact_jumps.json --default-cache "${CACHE%.npz}_default_sampling.npz" --json $HERE/choice.json ;;
   grid) for list in candidates candidates_second; do
-      timed "grid $list" python results/2026-12-04_footlock/tune.py --data "$DATA" --cache "$CACHE" \
-        --lengths 10,15,30,50 --variants "$(cat $V6/$list.json)" --json $HERE/grid_$list.json
+      tune "grid $list" $V6/$list.json $HERE/grid_$list.json --cache "$CACHE"
     done ;;
   grid_artefacts) for list in candidates candidates_second; do
-      timed "grid_artefacts $list" python $V6/jumps.py --data "$DATA" --cache "${CACHE%.npz}_artefacts.npz" \
-        --candidates $V6/$list.json --default-sampling "$DEFAULT" --json $HERE/grid_artefact_jumps_$list.json
+      jumps "grid_artefacts $list" $V6/$list.json $HERE/grid_artefact_jumps_$list.json
     done ;;
   grid_choose) timed grid_choose python $V6/choose.py --data "$DATA" \
       --validation $HERE/grid_candidates.json $HERE/grid_candidates_second.json \
