@@ -189,12 +189,18 @@ def _drop_closed_loop_tracebacks() -> None:
         threading.excepthook = _ignore_closed_loop_thread_errors
 
 
-def _silence_pending_read_errors() -> None:
-    """After a failed restore, the broken folder's other reads still fail in the background and asyncio /
-    concurrent.futures log each one with a traceback ("Task exception was never retrieved"); the one-line
-    warning already says the folder is broken, so those two loggers keep only critical records from now on."""
-    for name in ("asyncio", "concurrent.futures"):
+_BACKGROUND_LOGGERS = ("asyncio", "concurrent.futures")
+
+
+def _silence_pending_read_errors() -> dict:
+    """When a restore fails, the broken folder's other reads still fail in the background and asyncio /
+    concurrent.futures log each one with a traceback ("Task exception was never retrieved"), some of them
+    before the failure reaches the caller; the one-line warning already says the folder is broken. So those
+    two loggers keep only critical records from before the first attempt. Returns their previous levels."""
+    previous = {name: logging.getLogger(name).level for name in _BACKGROUND_LOGGERS}
+    for name in _BACKGROUND_LOGGERS:
         logging.getLogger(name).setLevel(logging.CRITICAL)
+    return previous
 
 
 def restore_newest_good(manager: ocp.CheckpointManager, abstract_state: Any,
@@ -213,18 +219,21 @@ def restore_newest_good(manager: ocp.CheckpointManager, abstract_state: Any,
     if not steps:
         raise CheckpointError(f"no checkpoint found in {directory}")
     _drop_closed_loop_tracebacks()
+    levels = _silence_pending_read_errors()
     failures = []
     for i, step in enumerate(steps):
         try:
             state, config_json, extras = restore(manager, abstract_state, step, partial)
         except Exception as error:  # orbax / TensorStore raise many types for a broken folder
-            _silence_pending_read_errors()
             failures.append(f"{directory / str(step)}: {_short(error)}")
             if report is not None:
                 older = steps[i + 1] if i + 1 < len(steps) else None
                 report(f"warning: checkpoint {directory / str(step)} cannot be restored ({_short(error)}); "
                        + (f"falling back to step {older}" if older is not None else "no older checkpoint left"))
             continue
+        if not failures:  # nothing is left reading in the background: the loggers as they were
+            for name, level in levels.items():
+                logging.getLogger(name).setLevel(level)
         return state, config_json, extras, int(step)
     raise CheckpointError(f"no checkpoint in {directory} can be restored: " + "; ".join(failures)
                           + ". Delete the broken step folders, or train again in a new --workdir")

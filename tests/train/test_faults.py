@@ -76,6 +76,39 @@ def test_broken_newest_checkpoint_falls_back_and_names_the_folder(tmp_path):
     checkpoints.close(manager)
 
 
+def test_background_read_errors_are_quiet_during_every_attempt_and_after_a_failure_only(tmp_path, monkeypatch):
+    # a failing read can log "Task exception was never retrieved" before the failure reaches restore_newest_good
+    import logging
+
+    manager = checkpoints.open_manager(tmp_path, async_save=False)
+    for step in (1, 2):
+        checkpoints.save(manager, step, _state(step), {"model": {}})
+    loggers = [logging.getLogger(name) for name in ("asyncio", "concurrent.futures")]
+    real_restore, levels_seen = checkpoints.restore, []
+
+    def restore(manager, abstract_state, step, partial):
+        levels_seen.append([logger.level for logger in loggers])
+        return real_restore(manager, abstract_state, step, partial)
+
+    monkeypatch.setattr(checkpoints, "restore", restore)
+    before = [logger.level for logger in loggers]
+    try:
+        for logger in loggers:
+            logger.setLevel(logging.WARNING)
+        _, _, _, step = checkpoints.restore_newest_good(manager, jax.eval_shape(lambda: _state(0)), report=None)
+        assert step == 2 and levels_seen == [[logging.CRITICAL] * 2]
+        assert [logger.level for logger in loggers] == [logging.WARNING] * 2  # all good: as they were
+        _truncate_state(checkpoints.checkpoint_dir(tmp_path) / "2")
+        levels_seen.clear()
+        _, _, _, step = checkpoints.restore_newest_good(manager, jax.eval_shape(lambda: _state(0)), report=None)
+        assert step == 1 and levels_seen == [[logging.CRITICAL] * 2] * 2
+        assert [logger.level for logger in loggers] == [logging.CRITICAL] * 2  # step 2's reads may still fail
+    finally:
+        for logger, level in zip(loggers, before):
+            logger.setLevel(level)
+        checkpoints.close(manager)
+
+
 def test_inbetween_load_model_falls_back_over_a_broken_checkpoint(tiny_run, tmp_path, capsys):
     from stitchjax.sample import trained_model
 
