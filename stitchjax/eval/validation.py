@@ -27,7 +27,7 @@ from stitchjax.sample import trained_model
 
 __all__ = ["METRICS", "validation_windows", "make_validator"]
 
-METRICS = ("ade", "slde", "npss", "foot_slide", "apd")
+METRICS = ("ade", "slde", "npss", "foot_slide", "penetration", "apd")
 
 
 def validation_windows(windows, count: int):
