@@ -116,6 +116,9 @@ class ModelConfig:
     # over frames, each frame still standard normal (noise.correlated_noise), at training and as sampling default
     posterior_horizon: int = 1  # 1: q(z | h, ground-truth next frame); k > 1: q sees the frame k steps ahead
     # (clipped at the keyframe it heads for) with the root's mean velocity over those k steps
+    update_anchor: str = "current"  # "current": each generated frame is the current frame plus the predicted
+    # update (the paper); "interpolation": the predicted update is added to the next frame of the straight path
+    # from the current frame to its target (rollout.interpolation_anchor): a zero update interpolates
 
 
 @dataclasses.dataclass(frozen=True)
@@ -148,12 +151,15 @@ class LossConfig:
     foot_skate_weight: float = 0.0  # > 0 adds losses.foot_skate_loss: the feet's movement where they are in contact
     foot_skate_contacts: str = "truth"  # which feet that term holds: "truth" = the ground truth's contact labels;
     # "height" = the generated foot near the ground (the foot-slide metric's weight); "height_either" = near the
-    # ground at either end of the movement, so a foot cannot jump from the air onto the ground for free
+    # ground at either end of the movement, so a foot cannot jump from the air onto the ground for free;
+    # "predicted" = the contacts the generator predicts for its own frames (no gradient through the weights)
     near_keyframe_weight: float = 1.0  # weight of the state and FK terms on each direction's first
     # near_keyframe_frames generated frames, the ones next to a keyframe (1 = every frame alike)
     near_keyframe_frames: int = 1  # how many frames near_keyframe_weight weighs, per direction
     foot_velocity_weight: float = 0.0  # > 0 adds losses.foot_velocity_loss: the feet's movement per frame
     # against the ground truth's
+    ground_penetration_weight: float = 0.0  # > 0 adds losses.ground_penetration_loss: how far the generated
+    # foot joints go below the window's ground
 
 
 @dataclasses.dataclass(frozen=True)
@@ -461,11 +467,11 @@ EXTENSIONS = (
     # data: the paper trains on every window of subjects 1-4, starting every 20 frames, unmirrored
     "data.validation_files", "data.extra_train_dirs", "data.random_starts", "data.mirror",
     # model
-    "model.keyframe_velocity", "model.noise_correlation", "model.posterior_horizon",
+    "model.keyframe_velocity", "model.noise_correlation", "model.posterior_horizon", "model.update_anchor",
     # loss: terms and weightings beyond Eq. 9
     "loss.kl_warmup_steps", "loss.free_bits", "loss.prior_kl_weight", "loss.prior_rollout",
     "loss.prior_sample_fraction", "loss.prior_sample_reconstruction_weight", "loss.prior_best_of",
-    "loss.foot_skate_weight", "loss.foot_skate_contacts", "loss.foot_velocity_weight",
+    "loss.foot_skate_weight", "loss.foot_skate_contacts", "loss.foot_velocity_weight", "loss.ground_penetration_weight",
     "loss.near_keyframe_weight", "loss.near_keyframe_frames",
     # train: the paper keeps the learning rate constant and trains at max_length once the schedule reaches it
     "train.lr_decay_to", "train.lr_decay_from_step", "train.lr_decay_until_step", "train.length_after_schedule",
@@ -479,8 +485,9 @@ CHOICES = {
     ("model", "posterior"): ("next_frame", "none"),
     ("model", "gamma_schedule"): ("direction", "transition"),
     ("model", "keyframe_velocity"): ("zero", "mean"),
+    ("model", "update_anchor"): ("current", "interpolation"),
     ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
-    ("loss", "foot_skate_contacts"): ("truth", "height", "height_either"),
+    ("loss", "foot_skate_contacts"): ("truth", "height", "height_either", "predicted"),
     ("train", "scan_remat"): ("none", "dots", "nothing", "taped"),  # accel.fast_rollout.SCAN_REMAT: one each
     ("train", "length_after_schedule"): ("max", "uniform"),  # schedule.transition_length
 }

@@ -1,8 +1,8 @@
 """Loss terms (paper section 3.2): state, KL, FK, stitching, LSGAN (Eq. 3-8), and the optional foot terms.
 
 The objectives that weigh them (paper Eq. 9) and the rollout they score are :mod:`stitchjax.model.objective`'s.
-Optional, not in the paper: :func:`foot_skate_loss` (``loss.foot_skate_weight``) and :func:`foot_velocity_loss`
-(``loss.foot_velocity_weight``).
+Optional, not in the paper: :func:`foot_skate_loss` (``loss.foot_skate_weight``), :func:`foot_velocity_loss`
+(``loss.foot_velocity_weight``) and :func:`ground_penetration_loss` (``loss.ground_penetration_weight``).
 
 Norms: ``loss.reduction="sum"`` takes ||.||_1 literally (sum over the components of a frame), then the
 mean over valid frames and the batch; "mean" also averages over components. Positions enter FK,
@@ -19,7 +19,8 @@ from stitchjax.data.windows import FOOT_HEIGHT_THRESHOLD_CM
 
 __all__ = [
     "masked_mean", "state_loss", "kl_loss", "gaussian_kl", "posterior_kl_loss", "fk_loss", "stitching_loss",
-    "foot_skate_loss", "foot_velocity_loss", "foot_height_contacts", "lsgan_generator_loss",
+    "foot_skate_loss", "foot_velocity_loss", "foot_height_contacts", "window_ground", "ground_penetration_loss",
+    "lsgan_generator_loss",
     "lsgan_discriminator_loss", "disc_features",
 ]
 
@@ -147,16 +148,36 @@ def foot_height_contacts(global_positions, truth_positions, mask, feet, up_axis:
     weights of t - 1 and t, so a foot that lands in frame t from the air is held too (``loss.
     foot_skate_contacts="height_either"``). Returns (..., T, C) weights, no gradient.
     """
-    truth_heights = truth_positions[..., list(feet), up_axis]  # (..., T, C)
-    valid = mask[..., :, None]
-    ground = jnp.min(jnp.where(valid, truth_heights, jnp.inf), axis=(-2, -1))
-    ground = jnp.where(jnp.isfinite(ground), ground, 0.0)
+    ground = window_ground(truth_positions, mask, feet, up_axis)
     height = global_positions[..., list(feet), up_axis] - ground[..., None, None]
     weight = jnp.clip(2.0 - jnp.power(2.0, height / threshold), 0.0, 1.0)
     shifted = jnp.concatenate([jnp.zeros_like(weight[..., :1, :]), weight[..., :-1, :]], axis=-2)
     if either_end:
         shifted = jnp.maximum(shifted, weight.at[..., :1, :].set(0.0))
     return jax.lax.stop_gradient(shifted)
+
+
+def window_ground(truth_positions, mask, feet, up_axis: int = 1):
+    """The window's ground (..., ), as the foot metrics define it: the lowest ground-truth height of any foot
+    joint over the valid frames (0 where no frame is valid). truth_positions (..., T, J, 3); mask (..., T)."""
+    truth_heights = truth_positions[..., list(feet), up_axis]  # (..., T, C)
+    ground = jnp.min(jnp.where(mask[..., :, None], truth_heights, jnp.inf), axis=(-2, -1))
+    return jnp.where(jnp.isfinite(ground), ground, 0.0)
+
+
+def ground_penetration_loss(global_positions, truth_positions, mask, feet, position_scale: float,
+                            up_axis: int = 1, reduction: str = "sum"):
+    """Ground penetration: how far each generated foot joint is below the window's ground (:func:`window_ground`),
+    max(ground - height, 0) / position_scale, summed over the foot joints, mean over valid frames (not in the
+    paper). Zero when no foot joint is below the ground; the ground truth scores zero by construction.
+
+    global_positions, truth_positions (..., T, J, 3) in data units; mask (..., T); feet: joint indices.
+    """
+    ground = jax.lax.stop_gradient(window_ground(truth_positions, mask, feet, up_axis))
+    heights = global_positions[..., list(feet), up_axis]  # (..., T, C)
+    depth = jnp.maximum(ground[..., None, None] - heights, 0.0) / position_scale
+    per_frame = jnp.sum(depth, axis=-1) if reduction == "sum" else jnp.mean(depth, axis=-1)
+    return masked_mean(per_frame, mask)
 
 
 def lsgan_generator_loss(fake_scores, mask):

@@ -32,7 +32,7 @@ import jax.numpy as jnp
 from stitchjax.model import batch as batch_lib
 from stitchjax.model import networks
 from stitchjax.model.losses import (disc_features, fk_loss, foot_height_contacts, foot_skate_loss,
-                                    foot_velocity_loss, kl_loss, lsgan_discriminator_loss, lsgan_generator_loss,
+                                    foot_velocity_loss, ground_penetration_loss, kl_loss, lsgan_discriminator_loss, lsgan_generator_loss,
                                     masked_mean, posterior_kl_loss, state_loss, stitching_loss)
 
 __all__ = [
@@ -138,12 +138,15 @@ def generator_objective(params, out, sampled, batch, length, spec, skeleton, kl_
         terms["foot_skate"] = _foot_skate_term(out, batch, lc, skeleton)
     if lc.foot_velocity_weight:
         terms["foot_velocity"] = _foot_velocity_term(out, batch, lc, skeleton)
+    if lc.ground_penetration_weight:
+        terms["ground_penetration"] = _ground_penetration_term(out, batch, lc, skeleton)
     kl_weight = lc.kl_weight * kl_scale
     prior_kl = lc.prior_kl_weight * terms["kl_prior"] if spec.posterior != "none" else 0.0
     total = (terms["state"] + kl_weight * terms.pop("kl_penalty") + prior_kl + lc.stitch_weight * terms["stitch"]
              + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"]
              + lc.foot_skate_weight * terms.get("foot_skate", 0.0)
-             + lc.foot_velocity_weight * terms.get("foot_velocity", 0.0))
+             + lc.foot_velocity_weight * terms.get("foot_velocity", 0.0)
+             + lc.ground_penetration_weight * terms.get("ground_penetration", 0.0))
     for name in directions:
         terms.pop(f"kl_penalty_{name}")
     fake = disc_features(sampled["global_positions"], sampled["root_positions"], skeleton)
@@ -341,6 +344,9 @@ def _foot_skate_term(out, batch, loss_config, skeleton):
     if loss_config.foot_skate_contacts == "truth":
         return foot_skate_loss(positions, batch["contacts"][:, :t], mask, feet, skeleton.position_scale,
                                loss_config.reduction)
+    if loss_config.foot_skate_contacts == "predicted":  # the generator's own contacts, as weights only
+        return foot_skate_loss(positions, jax.lax.stop_gradient(out["contacts"]), mask, feet,
+                               skeleton.position_scale, loss_config.reduction, up_axis=skeleton.up_index)
     if skeleton.up_sign < 0:  # heights would be measured downwards
         raise ValueError(f"loss.foot_skate_contacts={loss_config.foot_skate_contacts!r} needs windows with a "
                          f"positive up axis; {skeleton.dataset!r} loads them {skeleton.up_axis!r} up (use 'truth')")
@@ -357,3 +363,14 @@ def _foot_velocity_term(out, batch, loss_config, skeleton):
     positions = out["global_positions"]
     return foot_velocity_loss(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"], feet,
                               skeleton.position_scale, loss_config.reduction)
+
+
+def _ground_penetration_term(out, batch, loss_config, skeleton):
+    """loss.ground_penetration_weight's term on the stitched motion `out`, with the feet of `skeleton`."""
+    feet = _fixed_feet(skeleton, "loss.ground_penetration_weight")
+    if skeleton.up_sign < 0:  # heights would be measured downwards
+        raise ValueError(f"loss.ground_penetration_weight needs windows with a positive up axis; "
+                         f"{skeleton.dataset!r} loads them {skeleton.up_axis!r} up (set it to 0)")
+    positions = out["global_positions"]
+    return ground_penetration_loss(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"], feet,
+                                   skeleton.position_scale, skeleton.up_index, loss_config.reduction)

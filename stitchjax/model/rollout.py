@@ -25,6 +25,11 @@ Latent interpolation weight (:func:`interpolation_weight`) for the step that mak
 a direction: gamma = n / N (``model.gamma_schedule="direction"``: 0 at the generator's start, 1 at the last
 frame it makes, next to the frame it targets) or n / (L + 1) ("transition").
 
+Update anchor (``model.update_anchor``): each step's predicted update (rotation update, root velocity) is added to
+the current frame ("current", the paper's Eq. for the decoder's output), or to the next frame of the straight path
+from the current frame to the frame it heads for ("interpolation", :func:`interpolation_anchor`; the delta mode of
+the Delta-interpolator, an extension): with a zero update the rollout is then the interpolation of the keyframes.
+
 Latent source: with ``ground_truth`` (training, ``model.posterior="next_frame"``) every step draws z from the
 posterior q(z | h, ground-truth state of the frame it makes); without it z comes from the prior p (inference).
 
@@ -51,7 +56,7 @@ from stitchjax.data import phase as phase_lib
 from stitchjax import rotations as R
 
 __all__ = ["RolloutSpec", "rollout_spec", "rollout", "num_steps", "schedule", "interpolation_weight", "StepHook",
-           "aligning_step", "keyframe_velocity", "keyframe_states"]
+           "aligning_step", "keyframe_velocity", "keyframe_states", "interpolation_anchor"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -61,7 +66,8 @@ class RolloutSpec:
     generator: the generators' sizes and switches (``networks.GeneratorSpec``). From ``config.model``:
     bidirectional, bidirectional_aligning (Eq. 2 ablations), stitch_buffer K, gamma_schedule (Eq. 1's
     gamma: "direction" or "transition"), keyframe_velocity, contact_input_gradient, stop_phase_gradient,
-    noise_correlation, posterior_horizon. From ``config.data``: parents, position_scale, velocity_scale, fps.
+    noise_correlation, posterior_horizon, update_anchor. From ``config.data``: parents, position_scale,
+    velocity_scale, fps.
     prior_sample_fraction: ``loss.prior_sample_fraction``.
     """
 
@@ -80,6 +86,7 @@ class RolloutSpec:
     velocity_scale: float
     fps: float
     prior_sample_fraction: float
+    update_anchor: str = "current"
 
 
 def rollout_spec(config) -> RolloutSpec:
@@ -92,7 +99,7 @@ def rollout_spec(config) -> RolloutSpec:
         contact_input_gradient=m.contact_input_gradient, stop_phase_gradient=m.stop_phase_gradient,
         noise_correlation=m.noise_correlation, posterior_horizon=m.posterior_horizon, parents=tuple(data.parents),
         position_scale=data.position_scale, velocity_scale=data.velocity_scale, fps=data.fps,
-        prior_sample_fraction=config.loss.prior_sample_fraction)
+        prior_sample_fraction=config.loss.prior_sample_fraction, update_anchor=m.update_anchor)
 
 
 def num_steps(spec, max_length: int) -> int:
@@ -124,6 +131,30 @@ def interpolation_weight(spec, frame_number, frames_in_direction, length):
     else:
         raise ValueError(f"model.gamma_schedule={spec.gamma_schedule!r}: use 'direction' or 'transition'")
     return jnp.clip(n / total, 0.0, 1.0)
+
+
+def interpolation_anchor(current, target, distance, keyframe, keyframe_distance):
+    """Where a zero update takes a generator with ``model.update_anchor="interpolation"``: the next frame of the
+    straight path from ``current`` to the frame it heads for, 1 / (frames left) of the way: the root linearly,
+    each local rotation by slerp the short way.
+
+    current, target, keyframe: frame dicts ("rotations" (J, 4), "root" (3,)) in one time direction; it heads
+    for ``target`` at ``distance`` frames (() int) while distance >= 1, and past the generators' meeting point
+    (distance <= 0, on the stitching overlap) for ``keyframe`` (the other keyframe) at ``keyframe_distance``
+    frames. Returns {"rotations" (J, 4), "root" (3,)}. Along an interpolation both goals lie on the same path,
+    so zero updates reproduce it frame by frame.
+    """
+    ahead = distance >= 1
+    goal = _hold(ahead, {"rotations": target["rotations"], "root": target["root"]},
+                 {"rotations": keyframe["rotations"], "root": keyframe["root"]})
+    dtype = current["root"].dtype
+    frames_left = jnp.maximum(jnp.where(ahead, distance, keyframe_distance), 1).astype(dtype)
+    fraction = 1.0 / frames_left
+    rotations = current["rotations"]
+    same_side = jnp.sum(rotations * goal["rotations"], axis=-1, keepdims=True) >= 0
+    goal_rotations = jnp.where(same_side, goal["rotations"], -goal["rotations"])
+    return {"rotations": R.quat_slerp(rotations, goal_rotations, fraction),
+            "root": current["root"] + fraction * (goal["root"] - current["root"])}
 
 
 def _phase(spec, phase_params, state):
@@ -162,8 +193,11 @@ class StepHook:
 
 
 def _step(params, phase_params, spec, carry, current, target, distance, gamma, eps, next_state=None,
-          use_prior=None, apply=None):
+          use_prior=None, apply=None, anchor=None):
     """One generator step: frame dicts (rotations (J,4), root (3,), velocity (3,), contacts (C,)).
+
+    anchor: None (the update is added to ``current``) or {"rotations", "root"}, the frame the update is added
+    to (:func:`interpolation_anchor`); the new frame's velocity is then its root's movement from ``current``.
 
     next_state: (S,) ground-truth state of the frame this step makes (posterior training) or None (prior);
     use_prior: None or () bool, True = z from the prior even with next_state (``Generator``).
@@ -187,13 +221,28 @@ def _step(params, phase_params, spec, carry, current, target, distance, gamma, e
         (carry, out), recorded = apply(params, args)
     update = out["rotation_update"].reshape(current["rotations"].shape)
     velocity = out["velocity"]
+    base = current if anchor is None else anchor
+    root = base["root"] + velocity * spec.velocity_scale
+    if anchor is not None:
+        velocity = (root - current["root"]) / spec.velocity_scale
     frame = {
-        "rotations": R.quat_normalize(current["rotations"] + update),
-        "root": current["root"] + velocity * spec.velocity_scale,
+        "rotations": R.quat_normalize(base["rotations"] + update),
+        "root": root,
         "velocity": velocity,
         "contacts": jax.nn.sigmoid(out["contact_logits"]),
     }
     return carry, frame, {k: out[k] for k in networks.GAUSSIAN_KEYS}, recorded
+
+
+def _frames_between(plan, name: str, i, aligned: bool):
+    """() int: frames from the frame generator ``name`` makes its step-``i`` frame from to the frame it targets,
+    counted on the transition's frames (the other generator may have stopped: it holds its last frame)."""
+    length = plan["length"]
+    if not aligned:
+        return length + 1 - i
+    if name == "forward":  # from frame i to the backward generator's latest frame
+        return length + 1 - jnp.minimum(i, plan["n_backward"]) - i
+    return length + 1 - i - jnp.minimum(i + 1, plan["n_forward"])  # from frame L + 1 - i to the forward's latest
 
 
 def _reverse(frame):
@@ -239,9 +288,14 @@ def aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, xs_i=No
         count = plan[f"n_{name}"]
         gamma = interpolation_weight(spec, i + 1, count, length).astype(dtype)
         apply = None if hook is None else (lambda params, args: hook.apply(spec.generator, name, params, args, xs_i))
+        anchor = None
+        if m.update_anchor == "interpolation":
+            keyframe = _reverse(plan["target"] if name == "forward" else plan["start"])
+            anchor = interpolation_anchor(frame, target, _frames_between(plan, name, i, aligned), keyframe,
+                                          length + 1 - i)
         new_carry, new_frame, gaussians, recorded = _step(gen_params[name], phase_params, spec, carry_d, frame,
                                                           target, distance, gamma, eps, truth,
-                                                          plan.get("use_prior"), apply)
+                                                          plan.get("use_prior"), apply, anchor)
         carry_d, frame = _hold(i < count, (new_carry, new_frame), (carry_d, frame))
         out[name] = {**frame, **gaussians}
         if recorded is not None:
