@@ -21,7 +21,7 @@ from stitchjax.eval.drawing import (DEFAULT_CMAP, KEYFRAME_COLOR, check_pose, dr
                                     frame_axes, frame_colors, horizontal_axis, new_figure, project)
 
 __all__ = ["stick_figure", "filmstrip", "root_trajectories", "error_over_time", "per_frame_error", "loss_curves",
-           "foot_lock_before_after"]
+           "time_to_quality", "foot_lock_before_after"]
 
 
 # ----------------------------------------------------------------------------------------- poses
@@ -288,6 +288,44 @@ def loss_curves(records: Sequence[Mapping[str, float]], *, dpi: int = 90, path=N
         ax.tick_params(labelsize=7)
     for ax in list(axes.flat)[len(panels):]:
         ax.axis("off")
+    fig.tight_layout()
+    fig.set_dpi(dpi)
+    return finish_figure(fig, path)
+
+
+def time_to_quality(curves: Mapping[str, Sequence[Mapping[str, float]]], *,
+                    metrics: Sequence[str] = ("ade", "npss", "foot_slide", "penetration"),
+                    lengths: Sequence[int] = (30, 50), reference: str | None = None, dpi: int = 90,
+                    path=None) -> Figure:
+    """Validation ratios to interpolation against hours of training loop, one panel per metric and length
+    (rows: metrics, columns: lengths; 3.4 x 2.3 inches each), every run a line; 1 (interpolation) dashed.
+
+    curves: {run label: its validation points (``reporting.validation_curve``: "time_s" and
+    "<metric>_L<length>_ratio")}; a run without a metric leaves that panel without its line. reference: the
+    label drawn thick and grey (the run the others are compared with).
+    """
+    rows, cols = len(metrics), len(lengths)
+    fig = new_figure((3.4 * cols, 2.3 * rows), 100)
+    axes = fig.subplots(rows, cols, squeeze=False)
+    colors = matplotlib.colormaps["tab10"]
+    for r, metric in enumerate(metrics):
+        for c, length in enumerate(lengths):
+            ax, key = axes[r, c], f"{metric}_L{length}_ratio"
+            for index, (label, points) in enumerate(curves.items()):
+                shown = [(p["time_s"] / 3600.0, p[key]) for p in points if key in p]
+                if not shown:
+                    continue
+                style = (dict(color="0.55", lw=2.6, zorder=1) if label == reference
+                         else dict(color=colors(index % 10), lw=1.3, zorder=2))
+                ax.plot(*zip(*shown), marker=".", ms=4, label=label, **style)
+            ax.axhline(1.0, color="black", lw=0.8, ls="--")
+            ax.set_title(f"{metric.replace('_', ' ')}, L = {length}", fontsize=9)
+            ax.set_ylabel("ratio to interpolation", fontsize=7)
+            ax.set_xlabel("hours of training loop", fontsize=7)
+            ax.tick_params(labelsize=7)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    if handles:
+        axes[0, -1].legend(handles, labels, fontsize=6, loc="upper right")
     fig.tight_layout()
     fig.set_dpi(dpi)
     return finish_figure(fig, path)

@@ -1,7 +1,9 @@
 """A training run's record: WORKDIR/metrics.jsonl (one JSON object per logged step) and WORKDIR/report.md.
 
 Records are flat dicts: "step" (int), the loss terms (means over the logging interval), "length" (the
-transition length, frames), "epoch", "windows_per_s" and "time_s" (seconds since the loop started).
+transition length, frames), "epoch", "windows_per_s" and "time_s" (seconds since the loop started). Validation
+records (``train.eval_every``) hold "val_<metric>_L<length>" and interpolation's "val_<metric>_L<length>_interp"
+on the same windows; :func:`validation_curve` turns them into ratios against seconds of training loop.
 """
 
 from __future__ import annotations
@@ -40,6 +42,35 @@ def read_metrics(path: str | os.PathLike) -> list[dict]:
     if not path.is_file():
         return []
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def loop_seconds(records: list[dict]) -> list[float]:
+    """Seconds of training loop at each record, summed across the processes of a resumed run (each process's
+    "time_s" restarts at 0); records without "time_s" take the previous value (0 before any)."""
+    out, done, last = [], 0.0, 0.0
+    for record in records:
+        if "time_s" in record:
+            if record["time_s"] < last:  # a new process: its clock restarted
+                done += last
+            last = record["time_s"]
+        out.append(done + last)
+    return out
+
+
+def validation_curve(records: list[dict]) -> list[dict]:
+    """The validation points of a run: one dict per validation record, with "step", "time_s" (seconds of
+    training loop, :func:`loop_seconds`) and "<metric>_L<length>_ratio" = the model's figure over
+    interpolation's on the same windows (lower is better; 1 = interpolation), for every metric logged with its
+    interpolation figure (a zero interpolation figure gives no ratio)."""
+    points = []
+    for record, seconds in zip(records, loop_seconds(records)):
+        ratios = {}
+        for key, value in record.items():
+            if key.startswith("val_") and not key.endswith("_interp") and record.get(key + "_interp"):
+                ratios[key[4:] + "_ratio"] = value / record[key + "_interp"]
+        if ratios:
+            points.append({"step": record["step"], "time_s": seconds, **ratios})
+    return points
 
 
 # configs that show the pipeline working end to end, not models to evaluate: their reports say so
