@@ -4,8 +4,9 @@
     L = L_state + 1.0 L_kl + 0.5 L_stitch + 0.5 L_fk + 0.1 L_D + 0.1 L_G
 
 Every mechanism beyond Eq. 9 is off by default and named in ``config.EXTENSIONS`` (``config.extensions_on``
-says which a config turns on). Optional, not in the paper: ``loss.foot_skate_weight`` x ``losses.foot_skate_loss``
-and ``loss.foot_velocity_weight`` x ``losses.foot_velocity_loss``; ``loss.prior_best_of`` rolls the prior windows
+says which a config turns on). Optional, not in the paper: ``loss.foot_skate_weight`` x ``losses.foot_skate_loss``,
+``loss.foot_velocity_weight`` x ``losses.foot_velocity_loss`` and ``loss.ground_penetration_weight`` x
+``losses.ground_penetration_loss``; ``loss.prior_best_of`` rolls the prior windows
 out several times and scores only the copy nearest the ground truth in the state and FK terms
 (:func:`prior_copies`, :func:`best_of_weights`).
 
