@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The LAFAN1 training files' horizontal root speed: the fallback limit of placed targets.
 
-    python results/2026-12-04_root_speed/measure.py --data ../shared/data/lafan1 --json OUT.json
+    python experiments/2026-12-04_root_speed/measure.py --data ../shared/data/lafan1 --json OUT.json
 
 Every frame of every subject1-4 file (the training subjects; 30 fps, cm, +Y up): the horizontal
 (x, z) distance the root moves from one frame to the next, its percentiles in cm/frame and cm/s, over the

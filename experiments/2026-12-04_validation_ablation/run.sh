@@ -2,10 +2,10 @@
 # The ablation on the validation split: every row trained from scratch for the same steps from the same seed,
 # then scored on the whole validation split (10 samples, L = 30 and 50). Resumable: a finished row is skipped.
 #
-#   DATA=/path/to/lafan1 RUNS=/path/to/runs STEPS=5000 bash results/2026-12-04_validation_ablation/run.sh [ROW ...]
+#   DATA=/path/to/lafan1 RUNS=/path/to/runs STEPS=5000 bash experiments/2026-12-04_validation_ablation/run.sh [ROW ...]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-HERE=results/2026-12-04_validation_ablation
+HERE=experiments/2026-12-04_validation_ablation
 DATA=${DATA:?set DATA to the LAFAN1 folder}
 RUNS=${RUNS:?set RUNS to a folder for the runs}
 STEPS=${STEPS:-5000}
@@ -55,7 +55,7 @@ for row in "${ORDER[@]}"; do
   trained=$(date +%s)
   bin/evaluate model --checkpoint "$RUNS/$row/checkpoints/$STEPS" --data "$DATA" --split validation \
       --samples 10 --lengths 30,50 --noise-scales '' --json "$RUNS/$row.eval.json" >> "$RUNS/$row.log" 2>&1
-  python results/2026-12-04_release_run/summarise.py --metrics "$RUNS/$row/metrics.jsonl" \
+  python experiments/2026-12-07_release_64k/summarise.py --metrics "$RUNS/$row/metrics.jsonl" \
       --evaluation "$RUNS/$row.eval.json" --out "$RUNS/$row.summary.json" > /dev/null
   python - "$RUNS/$row.eval.json" "$RUNS/$row.summary.json" "$out" "$row" "${ROWS[$row]} train.max_steps=$STEPS" \
       "$((trained - start))" "$(git rev-parse --short HEAD)" <<'PY'

@@ -1,9 +1,9 @@
 """Foot locking version 6: the settings chosen on non-test windows, by the rule fixed before the grid ran.
 
-    python results/2026-12-06_footlock_v6/choose.py --validation validation_grid.json \
+    python experiments/2026-12-06_footlock_v6/choose.py --validation validation_grid.json \
         --default-cache /tmp/val_default.npz --artefacts artefact_jumps.json --json choice.json
 
-Rule: version 5's rule (``results/2026-12-06_footlock_v5/choose.py``: on the 376 validation windows at
+Rule: version 5's rule (``choose_v5.py``: on the 376 validation windows at
 L = 10, 15, 30 and 50, every cost within +2 %, no joint jump more than 5 % above the model alone's, the
 synthetic swing within 15 %, and at the release model's default sampling no joint jump more than 5 % above
 the model alone's), and
@@ -34,8 +34,7 @@ import sys
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-_spec = importlib.util.spec_from_file_location("choose_v5", os.path.join(HERE, "..", "2026-12-06_footlock_v5",
-                                                                         "choose.py"))
+_spec = importlib.util.spec_from_file_location("choose_v5", os.path.join(HERE, "choose_v5.py"))
 v5 = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(v5)
 KNEE_DEGREES = 6.0  # FootLockConfig.knee_step

@@ -1,6 +1,6 @@
 """The foot-locking settings chosen on the validation split, by the rule fixed before the test windows are read.
 
-    python results/2026-12-06_footlock_v4/choose.py --validation validation_grid.json --json choice.json
+    python experiments/2026-12-06_footlock_v6/choose_v4.py --validation validation_grid.json --json choice.json
 
 Rule: among the candidates of ``candidates.json`` (scored by ``tune.py`` on the 376 validation windows at
 L = 30 and 50), keep those that
@@ -22,7 +22,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.path.join(ROOT, "tests", "sample"))
-sys.path.insert(0, os.path.join(ROOT, "results", "2026-12-04_footlock"))
+sys.path.insert(0, HERE)
 
 import test_footlock as synthetic  # noqa: E402
 import tune  # noqa: E402

@@ -1,6 +1,6 @@
 """Foot locking version 5: the settings chosen on the validation split, by the rule fixed before the grid ran.
 
-    python results/2026-12-06_footlock_v5/choose.py --validation validation_grid.json --json choice.json
+    python experiments/2026-12-06_footlock_v6/choose_v5.py --validation validation_grid.json --json choice.json
 
 Rule: among the candidates of ``candidates.json`` (scored by ``tune.py`` on the 376 validation windows at
 L = 10, 15, 30 and 50), keep those that
@@ -26,8 +26,7 @@ import jax
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-_spec = importlib.util.spec_from_file_location("choose_v4", os.path.join(HERE, "..", "2026-12-06_footlock_v4",
-                                                                         "choose.py"))
+_spec = importlib.util.spec_from_file_location("choose_v4", os.path.join(HERE, "choose_v4.py"))
 v4 = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(v4)
 

@@ -1,7 +1,7 @@
 """The before/after figure: foot heights and sliding along one 50-frame test transition, without and with
 foot locking, planted spans shaded.
 
-    python results/2026-12-04_footlock/figure.py --out results/2026-12-04_footlock/foot_lock_L50.png
+    python experiments/2026-12-06_footlock_v6/figure.py --out experiments/2026-12-06_footlock_v6/foot_lock_L50.png
 
 The window: among the first 64 subject5 test windows (one sample each, seed 0), the one whose foot slide
 without the pass is closest to the mean over those 64 (a typical window, not a chosen one).
@@ -24,7 +24,7 @@ FEET = (3, 4, 7, 8)
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", default="../shared/data/lafan1")
-    parser.add_argument("--checkpoint", default="results/lafan1_cpu/from_scratch_mixed/models/pkv128")
+    parser.add_argument("--checkpoint", default="stitchjax/pretrained/lafan1_cpu_release")
     parser.add_argument("--length", type=int, default=50)
     parser.add_argument("--out", required=True)
     args = parser.parse_args()

@@ -1,7 +1,7 @@
 """How often the pass leaves a foot hovering: lifted clear of the ground for many frames where the generated
 foot is on it (validation split only).
 
-    python results/2026-12-06_footlock_v5/hover.py --cache /tmp/footlock_v5_validation.npz --json hover.json
+    python experiments/2026-12-06_footlock_v6/hover.py --cache /tmp/footlock_v5_validation.npz --json hover.json
 
 On the cached validation transitions (``tune.py``'s cache: the release model, 10 samples, the paper's
 sampling), with the package's defaults (or --fields): a leg hovers in a frame when the pass raised its ankle by more than
@@ -17,7 +17,7 @@ import jax
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "2026-12-04_footlock"))
+sys.path.insert(0, HERE)
 
 import measure  # noqa: E402
 import tune  # noqa: E402

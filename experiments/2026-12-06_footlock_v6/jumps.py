@@ -1,7 +1,7 @@
 """The largest joint jumps of foot-locking settings on an artefact set of training takes (never subject5).
 
-    python results/2026-12-06_footlock_v6/jumps.py --data /path/to/lafan1 --cache /tmp/artefacts.npz \
-        --candidates results/2026-12-06_footlock_v6/candidates.json --json jumps.json
+    python experiments/2026-12-06_footlock_v6/jumps.py --data /path/to/lafan1 --cache /tmp/artefacts.npz \
+        --candidates experiments/2026-12-06_footlock_v6/candidates.json --json jumps.json
 
 The validation split's 376 windows were too few to show a rare jump: version 5 passed the jump rule there at
 both samplings, then made a 43.6 cm joint jump on one test transition at L = 30 (the model alone: 36.5 cm).
@@ -21,7 +21,7 @@ import jax
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "2026-12-04_footlock"))
+sys.path.insert(0, HERE)
 import measure  # noqa: E402
 import tune  # noqa: E402
 

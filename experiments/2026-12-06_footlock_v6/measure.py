@@ -1,7 +1,7 @@
 """Foot locking measured: each length's transitions sampled once and scored without and with the pass.
 
-    python results/2026-12-04_footlock/measure.py --windows train --count 48 --json tune.json   # tuning
-    python results/2026-12-04_footlock/measure.py --windows test --json test.json               # 376 windows
+    python experiments/2026-12-06_footlock_v6/measure.py --windows train --count 48 --json tune.json   # tuning
+    python experiments/2026-12-06_footlock_v6/measure.py --windows test --json test.json               # 376 windows
 
 --windows train: windows of 65 frames every 40 of training takes (subjects 1-4; --takes, default six of them),
 evenly spaced --count of them; test: the subject5 test windows. Per length: foot slide (cm/frame), ADE,

@@ -1,6 +1,6 @@
 """Foot-locking settings compared on one set of cached transitions (validation takes only, never subject5).
 
-    python results/2026-12-04_footlock/tune.py --data /path/to/lafan1 --cache /tmp/val.npz \
+    python experiments/2026-12-06_footlock_v6/tune.py --data /path/to/lafan1 --cache /tmp/val.npz \
         --variants '{"v3": {}, "lift_any": {"clearance_contact": false}}' --json out.json
 
 The transitions are sampled once per length (the release model, 10 samples, the paper's sampling; cached in

@@ -1,6 +1,6 @@
 """Choose the release model's default sampling on the validation split.
 
-    python results/2026-12-04_release_recipe/choose_sampling.py GRID.json ... --out sampling_choice.json
+    python experiments/2026-12-07_release_64k/choose_sampling.py GRID.json ... --out sampling_choice.json
 
 Each GRID.json is a `bin/evaluate model --split validation --noise-correlation RHO --noise-ramp K
 --noise-scales S1,S2,...` output. Every model row (noise x1 and each scale) of every file is a candidate

@@ -1,6 +1,6 @@
 """Does the second release recipe's model replace the first? Decided on the validation split only.
 
-    python results/2026-12-05_release_v2/compare.py FIRST.json SECOND.json --out decision.json
+    python experiments/2026-12-07_release_64k/compare.py FIRST.json SECOND.json --out decision.json
 
 FIRST and SECOND are `bin/evaluate model --split validation --samples 10 --lengths 30,50 --noise-scales ''`
 outputs (the paper's sampling) of the two models. The rule, fixed before SECOND was computed: SECOND replaces

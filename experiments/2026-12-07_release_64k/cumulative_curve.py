@@ -1,9 +1,7 @@
-"""Make the validation curve's times cumulative over the run's three parts (bin/train's time_s restarts at 0 on
-each resume), then redraw the curve.
+"""Make the validation curve's times cumulative over a run's parts (bin/train's time_s restarts at 0 on each
+resume), then redraw the curve: cumulative_time.py sets PARTS from the run's metrics.jsonl and calls main.
 
-    python results/2026-12-05_release_25k/cumulative_time.py results/2026-12-05_release_25k/summary_validation.json
-
-The parts (log.txt): steps 0-5853 in 1490 s of training loop, 5853-8352 in 866 s, 8352-25000 in 3518 s. A point
+The default PARTS are the 25000-step run's (steps 0-5853 in 1490 s of training loop, 5853-8352 in 866 s). A point
 at step s of a later part gets the loop time of the parts before it added. Writes "time_cumulative": true into
 the file, so running it twice changes nothing.
 """
@@ -31,7 +29,7 @@ def main(path):
             first["time_s"] += offset(first["step"])
         curve["time_cumulative"] = True
         path.write_text(json.dumps(summary, indent=2) + "\n")
-    subprocess.run([sys.executable, "results/2026-12-04_release_recipe/curve_figure.py", str(path),
+    subprocess.run([sys.executable, str(pathlib.Path(__file__).with_name("curve_figure.py")), str(path),
                     str(path.with_name("validation_curve.png"))], check=True)
     print(curve["first_below_interpolation_on_ade_and_npss"])
 

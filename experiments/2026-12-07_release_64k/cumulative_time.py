@@ -1,12 +1,11 @@
-"""Make the validation curve's times cumulative over a run's parts, then redraw the curve: the 25000-step study's
-script, with the parts read from the run's metrics.jsonl instead of written in (bin/train's time_s restarts at 0
+"""Make the validation curve's times cumulative over a run's parts, then redraw the curve: cumulative_curve.py,
+with the parts read from the run's metrics.jsonl instead of written in (bin/train's time_s restarts at 0
 on each resume; a part ends at the last step it logged before the next part's first).
 
-    RUN=runs/release_40k python results/2026-12-06_release_40k/cumulative_time.py SUMMARY_JSON
+    RUN=runs/release_64k python experiments/2026-12-07_release_64k/cumulative_time.py SUMMARY_JSON
 
-Later release studies use it too (their run.sh sets CUMULATIVE to it). For this run the parts are
-((26000, 10440.8),): steps 0-26000 in 10441 s (it counts the pauses and the shared cores of README), then the
-second part.
+The release studies use it (their run.sh sets CUMULATIVE to it). For the 64000-step run the parts were
+((37000, 9646.8),): steps 0-37000 in 9647 s, then the second part.
 """
 import importlib.util
 import json
@@ -28,7 +27,8 @@ def parts(metrics_path):
 
 
 if __name__ == "__main__":
-    spec = importlib.util.spec_from_file_location("cumulative_25k", "results/2026-12-05_release_25k/cumulative_time.py")
+    spec = importlib.util.spec_from_file_location("cumulative_curve", os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                                                  "cumulative_curve.py"))
     cumulative = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(cumulative)
     cumulative.PARTS = parts(os.path.join(os.environ["RUN"], "metrics.jsonl"))

@@ -1,7 +1,7 @@
 """The release run's validation curve as a picture: ratios to interpolation against minutes of training loop.
 
-    python results/2026-12-04_release_recipe/curve_figure.py results/2026-12-04_release_recipe/summary_validation.json \
-        results/2026-12-04_release_recipe/validation_curve.png
+    python experiments/2026-12-07_release_64k/curve_figure.py experiments/2026-12-07_release_64k/summary_validation.json \
+        experiments/2026-12-07_release_64k/validation_curve.png
 """
 import json
 import sys

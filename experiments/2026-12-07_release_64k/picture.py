@@ -2,7 +2,7 @@
 the bundled take, at the model's default sampling and at the paper's; writes picture_spread.json (spread = mean
 per-joint distance between the samples, mean over the 6 pairs, at the middle generated frame and over all 45).
 
-    python results/2026-12-05_release_25k/picture.py --out results/2026-12-05_release_25k/picture_spread.json [--checkpoint DIR]
+    python experiments/2026-12-07_release_64k/picture.py --out experiments/2026-12-07_release_64k/picture_spread.json [--checkpoint DIR]
 """
 import argparse
 import itertools

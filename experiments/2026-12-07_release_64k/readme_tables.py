@@ -1,6 +1,6 @@
 """Print the top-level README's two results tables from a study's test JSON files.
 
-    python results/2026-12-05_release_25k/readme_tables.py results/2026-12-05_release_25k
+    python experiments/2026-12-07_release_64k/readme_tables.py experiments/2026-12-07_release_64k
 
 Reads test_paper_L10_30_50.json (the paper's sampling), test_default_L10_30_50.json (the default sampling) and
 test_official_L5_15_45.json in FOLDER; the paper's rows are its Tables 1 and 2.

@@ -1,9 +1,7 @@
 #!/usr/bin/env bash
-# The release model from one command, then everything measured of it. Stages (each resumable: a finished
-# output is kept):
-#   train        bin/train --config lafan1_cpu_release (20000 steps from scratch when this study ran; the config
-#                now trains 25000, results/2026-12-05_release_25k: `git show a829407:configs/lafan1_cpu_release.py`
-#                is this study's)
+# The stages of a release recipe's run (first written for the 20000-step recipe, 2026-12-04_release_recipe),
+# each resumable (a finished output is kept):
+#   train        bin/train --config CONFIG
 #   export       the float16 release folder, precision-checked
 #   validation   the validation split at the paper's sampling
 #   curve        the run's validation curve (summary_validation.json, validation_curve.png)
@@ -12,17 +10,16 @@
 #   test         the subject5 test table at the paper's sampling: L = 10, 30, 50 (diversity protocol) and 5, 15,
 #                45 (official protocol)
 #   test_default the subject5 test table at the default sampling, L = 10, 30, 50
-#   DATA=/path/to/lafan1 RUNS=/path/to/runs bash results/2026-12-04_release_recipe/run.sh [STAGE ...]
-# Another recipe's study reuses the stages with OUT (its folder), CONFIG, RUN, MODEL, FOOT_LOCK (--foot-lock of
-# the test stage's L = 10, 30, 50 run) and GRID set; results/2026-12-05_release_v2/run.sh does.
+# stages.sh here runs them with OUT (the study's folder), CONFIG, RUN, MODEL, FOOT_LOCK (--foot-lock of the test
+# stage's L = 10, 30, 50 run) and GRID set.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-HERE=results/2026-12-04_release_recipe
-OUT=${OUT:-$HERE}
+HERE=experiments/2026-12-07_release_64k  # the scripts of the stages
+OUT=${OUT:?set OUT to the study's folder}
 DATA=${DATA:?set DATA to the LAFAN1 folder}
 RUNS=${RUNS:?set RUNS to a folder for the run}
 CONFIG=${CONFIG:-lafan1_cpu_release}
-RUN=${RUN:-$RUNS/release20k}
+RUN=${RUN:?set RUN to the run's folder}
 MODEL=${MODEL:-stitchjax/pretrained/lafan1_cpu_release}
 FOOT_LOCK=${FOOT_LOCK:-off}
 GRID=${GRID:-0 0,0.9 0,0.95 0,0.95 4,0.98 4}  # the grid stage's "RHO RAMP" settings, comma-separated
@@ -49,7 +46,7 @@ validation)
   [ -f $OUT/validation_paper.json ] || timed validation_paper bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
       --split validation --samples 10 --lengths 30,50 --noise-scales '' --json $OUT/validation_paper.json ;;
 curve)
-  python results/2026-12-04_release_run/summarise.py --metrics "$RUN/metrics.jsonl" \
+  python $HERE/summarise.py --metrics "$RUN/metrics.jsonl" \
       --evaluation $OUT/validation_paper.json --out $OUT/summary_validation.json > /dev/null
   python $HERE/curve_figure.py $OUT/summary_validation.json $OUT/validation_curve.png ;;
 grid)
@@ -65,7 +62,7 @@ choose)
   python $HERE/choose_sampling.py $OUT/grid_rho*_ramp*.json --out $OUT/sampling_choice.json | tee $OUT/sampling_choice.txt
   read -r S R K < <(python -c "import json; c=json.load(open('$OUT/sampling_choice.json'))['chosen']; print(c['noise_scale'], c['noise_correlation'], c['noise_ramp_steps'])")
   timed export_sampling bin/export --run "$RUN" --out "$MODEL" --check-data "$DATA" --sampling "$S,$R,$K" \
-      --sampling-note "chosen on the validation split: $OUT/sampling_choice.json" ;;
+      --sampling-note "chosen on the validation split" ;;
 test)
   [ -f $OUT/test_paper_L10_30_50.json ] || timed test_paper bin/evaluate model --checkpoint "$MODEL" --data "$DATA" \
       --samples 10 --lengths 10,30,50 --noise-scales '' --foot-lock "$FOOT_LOCK" --json $OUT/test_paper_L10_30_50.json

@@ -1,7 +1,7 @@
 """The release run's validation curve and an evaluation's ratios to interpolation, as JSON.
 
-    python results/2026-12-04_release_run/summarise.py --metrics /work/runs/release/metrics.jsonl \
-        --evaluation results/2026-12-04_release_run/validation_step<N>.json --out results/2026-12-04_release_run/summary.json
+    python experiments/2026-12-07_release_64k/summarise.py --metrics runs/release_64k/metrics.jsonl \
+        --evaluation experiments/2026-12-07_release_64k/validation_paper.json --out experiments/2026-12-07_release_64k/summary_validation.json
 
 Curve: every validation record of metrics.jsonl (train.eval_every), each metric beside interpolation's on the
 same validation windows, and the first step (and training wall time) at which the model is below interpolation

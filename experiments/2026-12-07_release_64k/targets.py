@@ -3,7 +3,7 @@ sampling, 10 samples, 376 subject5 windows): ADE and NPSS at most 0.85x interpol
 most 0.85x at L = 15, 30 and 45; SLDE at most interpolation's and foot slide below it at every L; APD above 0 and
 rising with L. Prints one line per target and writes them as JSON.
 
-    python results/2026-12-06_release_40k/targets.py results/2026-12-06_release_40k [--out FILE]
+    python experiments/2026-12-07_release_64k/targets.py experiments/2026-12-07_release_64k [--out FILE]
 """
 import argparse
 import json

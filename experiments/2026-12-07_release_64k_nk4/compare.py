@@ -1,6 +1,6 @@
 """Does the near-keyframe model replace the 64000-step release model? Decided on the validation split only.
 
-    python results/2026-12-07_release_64k_nk4/compare.py RELEASE_L30_50.json RELEASE_L5.json \
+    python experiments/2026-12-07_release_64k_nk4/compare.py RELEASE_L30_50.json RELEASE_L5.json \
         CANDIDATE_L30_50.json CANDIDATE_L5.json --out decision.json
 
 Each file is a `bin/evaluate model --split validation --samples 10 --noise-scales ''` output (the paper's

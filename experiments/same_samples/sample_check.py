@@ -1,8 +1,8 @@
 """Transitions of the release model at three lengths and three samplings, saved for a byte-for-byte comparison
 between two checkouts (either package layout).
 
-    PYTHONPATH=/path/to/before python results/2026-12-05_stage_subpackages/sample_check.py before.npz
-    PYTHONPATH=/path/to/after  python results/2026-12-05_stage_subpackages/sample_check.py after.npz
+    PYTHONPATH=/path/to/before python experiments/same_samples/sample_check.py before.npz
+    PYTHONPATH=/path/to/after  python experiments/same_samples/sample_check.py after.npz
     python -c "import numpy as np; a, b = np.load('before.npz'), np.load('after.npz'); print(all(np.array_equal(a[k], b[k]) for k in a))"
 """
 import sys, numpy as np

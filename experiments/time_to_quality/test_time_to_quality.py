@@ -1,4 +1,4 @@
-"""results/time_to_quality.py: loop time summed across resumes and runs, and the first validation row that
+"""time_to_quality.py: loop time summed across resumes and runs, and the first validation row that
 beats interpolation on both NPSS and foot slide."""
 import json
 import pathlib
@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-SCRIPT = pathlib.Path(__file__).resolve().parent.parent / "time_to_quality.py"
+SCRIPT = pathlib.Path(__file__).resolve().parent / "time_to_quality.py"
 sys.path.insert(0, str(SCRIPT.parent))
 import time_to_quality  # noqa: E402
 

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Wall time of training until the validation samples first beat interpolation, along a lineage of runs.
 
-    python results/time_to_quality.py results/lafan1_cpu/scratch/train_repro/metrics.jsonl \
-        results/lafan1_cpu/scratch/train_height32/metrics.jsonl ... [--length 30] [--json OUT]
+    python experiments/time_to_quality/time_to_quality.py runs/repro/metrics.jsonl runs/height32/metrics.jsonl ... \
+        [--length 30] [--json OUT]
 
 The files are the `metrics.jsonl` of runs in the order they continued one another (`--init-from`, or a
 resume in the same workdir). Each file counts up to the step where the next one starts; its loop time is
@@ -17,7 +17,7 @@ import json
 import pathlib
 import sys
 
-REPO = pathlib.Path(__file__).resolve().parent.parent
+REPO = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
 from stitchjax.train import reporting  # noqa: E402
