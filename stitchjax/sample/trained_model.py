@@ -33,7 +33,6 @@ from stitchjax import checkpoints, parallel
 from stitchjax.accel import matmul as accel_matmul
 from stitchjax.data import conform, datasets, features, phase
 from stitchjax.model import networks
-from stitchjax import RELEASE_MODEL
 from stitchjax.model import rollout as rollout_lib
 from stitchjax import config as config_lib
 from stitchjax.skeleton import LAFAN1_FEET
@@ -42,6 +41,7 @@ __all__ = ["InbetweenError", "Model", "RELEASE_MODEL", "SAMPLING_KEYS", "check_s
            "model_or_pretrained", "pretrained", "random_model", "with_matmul_dtype"]
 
 MODELS_DIR = pathlib.Path(__file__).resolve().parent.parent / "pretrained"  # exported models shipped with the package
+RELEASE_MODEL = config_lib.RELEASE_MODEL  # the folder of MODELS_DIR that pretrained() loads
 SAMPLING_KEYS = ("noise_scale", "noise_correlation", "noise_ramp_steps")
 MODEL_JSON, PARAMS_FILE = "model.json", "params.msgpack"  # an exported model folder's two files
 FORMAT = "stitchjax-model"
