@@ -1,4 +1,7 @@
-"""Reference configuration: the paper's full model on LAFAN1 (section 4.4 hyperparameters)."""
+"""Reference configuration: the paper's full model on LAFAN1 (section 4.4 hyperparameters), sized for a GPU.
+
+    bin/train --config lafan1 --workdir runs/lafan1 --data ../shared/data/lafan1
+"""
 from stitchjax.config import Config, DataConfig
 
 

@@ -2,18 +2,10 @@
 
     bin/train --config lafan1_cpu --workdir runs/lafan1_cpu --data ../shared/data/lafan1
 
-Everything the paper fixes stays (both generators, aligning, stitching, latent interpolation, phase-gated
-experts, the loss and its weights, no extension: `config.extensions_on` names only the validation split);
-the widths are cut so that one step at L = 50 takes well under a second on 2 cores, the learning rate is raised
-for the short run, and the length grows faster (5 -> 50 by half of the run, then the rest at the full length).
-Three training takes are held out as the validation split (`data.validation_files`) that `train.eval_every`
-scores, so no choice reads the subject5 test windows. The paper-size `lafan1` config is for GPUs.
-
-Until 2026-12-04 this config also set the KL weight to 0.1 with free bits, a KL warm-up, prior samples and a
-foot-skate term, and had no validation split: the runs in results/lafan1_cpu were trained so
-(results/lafan1_cpu/run.sh passes those values as $CPU_BEFORE_PAPER; each checkpoint's config is saved with it).
-The recipes built on them are `results/lafan1_cpu/scratch_mixed/lafan1_cpu_mixed.py` (the committed scratch_mixed
-model) and `lafan1_cpu_release`.
+3000 steps, roughly 20 minutes of training loop on 2 CPU cores. Everything the paper fixes stays and no
+extension is on; the widths are cut for the CPU, the learning rate is raised for the short run and the length
+grows faster (5 -> 50 by half of the run). Three training takes are held out as the validation split that
+`train.eval_every` scores, so no choice reads the subject5 test windows. The paper-size `lafan1` is for GPUs.
 """
 from stitchjax.config import variant
 

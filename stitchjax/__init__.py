@@ -7,13 +7,14 @@ shared modules at the top (rotations, skeleton, config, specs, checkpoints, para
     footlock) -> eval/ (metrics, protocols, figures) -> train/ (step, loop, schedule, resume)
     accel/: speed machinery beside the model (the train step and the model loader opt in; the model never imports it)
 
-README.md ("What is where") gives each module's one job.
+docs/design.md ("Code map") gives each module's one job.
 
     model = stitchjax.pretrained()   # the release model shipped in stitchjax/pretrained/, ready to sample
 """
 
+from stitchjax.config import RELEASE_MODEL  # the folder of stitchjax/pretrained/ that pretrained() loads
+
 __version__ = "0.1.0"
-RELEASE_MODEL = "lafan1_cpu_release"  # the folder of stitchjax/pretrained/ that pretrained() loads
 
 
 def pretrained(name: str | None = None):

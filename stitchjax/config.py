@@ -244,6 +244,10 @@ _SECTIONS = ("data", "model", "loss", "train", "phase")
 # Loading named configs
 
 
+# The named config of the release model; bin/export ships that model as stitchjax/pretrained/<this name>.
+RELEASE_MODEL = "lafan1_cpu_release"
+
+
 def configs_dir() -> pathlib.Path:
     """The configs folder: $STITCHJAX_CONFIGS, else ``configs/`` beside the package."""
     env = os.environ.get("STITCHJAX_CONFIGS")

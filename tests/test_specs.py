@@ -32,6 +32,17 @@ def test_the_model_imports_none_of_the_speed_machinery():
         assert not [name for name in names if "accel" in name], f"{path.name} imports stitchjax.accel"
 
 
+def test_no_module_imports_from_the_package_init():
+    """Modules import each other, never names defined in stitchjax/__init__.py (it sits above them all)."""
+    package = pathlib.Path(C.__file__).parent
+    for path in sorted(package.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module == "stitchjax" and node.level == 0:
+                for alias in node.names:
+                    is_module = (package / f"{alias.name}.py").is_file() or (package / alias.name).is_dir()
+                    assert is_module, f"{path.relative_to(package)} imports {alias.name} from stitchjax/__init__.py"
+
+
 def test_losses_take_the_skeleton_from_a_spec_not_from_the_dataset_registry():
     for module in (losses, objective):
         assert not {"datasets", "conform", "stitchjax.data.datasets", "stitchjax.data.conform"} & _imported_modules(module)

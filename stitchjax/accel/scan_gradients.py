@@ -1,12 +1,12 @@
 """Generator weight gradients formed after the rollout's scan (``train.weight_gradients_after_scan``).
 
-What it buys (measured, benchmarks/README.md): differentiating a ``lax.scan`` makes every backward step form
+What it buys: differentiating a ``lax.scan`` makes every backward step form
 and accumulate its own weight gradient x^T dy from one step's few rows (B = 32), a matmul CPUs and GPUs run
 far below their peak. Instead the generators' kernels are held constant inside the scan, every product
 ``x @ W`` gets a zero probe added and records its input x (``accel.probes.kernel_matmul``); the probes'
 gradients are the products' output gradients dy, and after the scan each kernel's gradient is ONE matmul
-x^T dy over all B x steps rows. Same gradients (tested against plain autodiff); train step -7 % and the
-update's compile time 90 -> 25 s on a 2-core Zen 3 CPU.
+x^T dy over all B x steps rows. Same gradients (tested against plain autodiff), a shorter train step and a
+smaller program to compile (benchmarks/README.md has both times).
 
 :func:`gradients_after_scan` wraps any function of the generators that accepts probes; the training step's
 rollout uses it (:mod:`stitchjax.accel.fast_rollout`).

@@ -33,7 +33,7 @@ import numpy as np
 from stitchjax import rotations as R
 from stitchjax.skeleton import GlobalTransforms, Skeleton
 
-__all__ = ["BVHError", "Motion", "load", "save", "ROOT_CHANNELS", "JOINT_CHANNELS"]
+__all__ = ["BVHError", "Motion", "load", "save", "file_stem", "ROOT_CHANNELS", "JOINT_CHANNELS"]
 
 _POSITION_CHANNELS = {"xposition": 0, "yposition": 1, "zposition": 2}
 _ROTATION_CHANNELS = {"xrotation": "x", "yrotation": "y", "zrotation": "z"}
@@ -319,6 +319,16 @@ def _fps_from_frame_time(frame_time: float) -> float:
 def _pad_order(order: str) -> str:
     """A 1- or 2-axis rotation order completed to three distinct axes (extra angles are zero)."""
     return order + "".join(a for a in "xyz" if a not in order)[: 3 - len(order)]
+
+
+def file_stem(path) -> str:
+    """A BVH file's name without its ``.bvh`` / ``.gz`` endings (either or both, any case): its take's name.
+    ``"walk1_subject1.bvh.gz"`` -> ``"walk1_subject1"``; ``path``: a path or a file name."""
+    name = pathlib.Path(path).name
+    for suffix in (".gz", ".bvh"):
+        if name.lower().endswith(suffix):
+            name = name[: -len(suffix)]
+    return name
 
 
 def load(path) -> Motion:

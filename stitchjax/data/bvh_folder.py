@@ -72,16 +72,8 @@ def list_files(data_dir) -> list:
     return sorted(files, key=lambda p: p.relative_to(folder).as_posix())
 
 
-def _stem(path: pathlib.Path) -> str:
-    name = path.name
-    for suffix in (".gz", ".bvh"):
-        if name.lower().endswith(suffix):
-            name = name[: -len(suffix)]
-    return name
-
-
 def _matches_subject(rel: pathlib.PurePath, subject: str) -> bool:
-    return subject in rel.parts[:-1] or _stem(pathlib.Path(rel.name)).endswith(f"_{subject}")
+    return subject in rel.parts[:-1] or bvh.file_stem(rel.name).endswith(f"_{subject}")
 
 
 def split_files(data_dir, data, split: str = "train") -> list:
@@ -95,9 +87,9 @@ def split_files(data_dir, data, split: str = "train") -> list:
     def matches(p, patterns):
         return any(fnmatch.fnmatch(str(rel[p]), pat) or fnmatch.fnmatch(rel[p].name, pat) for pat in patterns)
 
-    validation = {_stem(pathlib.Path(n)) for n in getattr(data, "validation_files", ())}
+    validation = {bvh.file_stem(n) for n in getattr(data, "validation_files", ())}
     if split == "validation":
-        chosen = [p for p in files if _stem(p) in validation]
+        chosen = [p for p in files if bvh.file_stem(p) in validation]
         what = f"data.validation_files={tuple(data.validation_files)}"
     elif split == "test":
         chosen = [p for p in files if matches(p, test_patterns)] if test_patterns else []
@@ -113,7 +105,7 @@ def split_files(data_dir, data, split: str = "train") -> list:
         chosen = [p for p in files if not matches(p, test_patterns)]
         what = "every file not in data.test_files"
     if split == "train":
-        chosen = [p for p in chosen if _stem(p) not in validation]  # the validation takes never train
+        chosen = [p for p in chosen if bvh.file_stem(p) not in validation]  # the validation takes never train
     if not chosen:
         names = ", ".join(str(rel[p]) for p in files[:6]) + (" ..." if len(files) > 6 else "")
         raise BVHFolderError(f"no {split} files in {folder} for {what}; it holds {names}. Set data.train_files / "

@@ -148,14 +148,6 @@ def uses_training_set_options(data) -> bool:
     return bool(data.validation_files or data.extra_train_dirs or data.random_starts or data.mirror)
 
 
-def _stem(path) -> str:
-    name = pathlib.Path(path).name
-    for suffix in (".gz", ".bvh"):
-        if name.lower().endswith(suffix):
-            name = name[: -len(suffix)]
-    return name
-
-
 def _main_files(folder: pathlib.Path, data) -> tuple[list, list]:
     """(training files before the validation split, test files) of the main dataset folder."""
     if data.dataset == "lafan1":
@@ -183,11 +175,11 @@ def validation_files(data_dir, data) -> list:
     folder, in the config's order. ValueError when one is a test file, is missing, or is not a training file."""
     folder = pathlib.Path(data_dir).expanduser()
     train, test = _main_files(folder, data)
-    test_stems = {_stem(p) for p in test}
-    by_stem = {_stem(p): p for p in train}
+    test_stems = {bvh.file_stem(p) for p in test}
+    by_stem = {bvh.file_stem(p): p for p in train}
     chosen = []
     for name in data.validation_files:
-        stem = _stem(name)
+        stem = bvh.file_stem(name)
         if _is_test_take(stem, test_stems, data):
             raise ValueError(f"data.validation_files: {name!r} is a test file; the validation split must come from "
                              f"the training files (test files: {', '.join(sorted(test_stems)) or 'the test subjects'})")
@@ -213,9 +205,9 @@ def extra_training_files(data_dir, data) -> list:
     when one's take is a test file (or of a test subject), a validation take, or a take of the main folder."""
     folder = pathlib.Path(data_dir).expanduser()
     train, test = _main_files(folder, data)
-    test_stems = {_stem(p) for p in test}
-    main_takes = {take_of(_stem(p)) for p in list(bvh_folder.list_files(folder))}
-    validation = {take_of(_stem(n)) for n in data.validation_files}
+    test_stems = {bvh.file_stem(p) for p in test}
+    main_takes = {take_of(bvh.file_stem(p)) for p in list(bvh_folder.list_files(folder))}
+    validation = {take_of(bvh.file_stem(n)) for n in data.validation_files}
     files = []
     for extra in data.extra_train_dirs:
         extra_dir = pathlib.Path(extra).expanduser()
@@ -226,7 +218,7 @@ def extra_training_files(data_dir, data) -> list:
         except FileNotFoundError as error:
             raise ValueError(f"data.extra_train_dirs: {error}") from None
         for path in found:
-            take = take_of(_stem(path))
+            take = take_of(bvh.file_stem(path))
             if _is_test_take(take, {take_of(t) for t in test_stems}, data):
                 raise ValueError(f"data.extra_train_dirs: {path} is of the test take {take!r}; remove it from "
                                  f"{extra_dir} (test data never trains)")

@@ -15,9 +15,7 @@ The facts reproduced here are those of the official LAFAN1 benchmark code (docs/
 
 One deliberate difference: the official code normalises the facing quaternion as ``q / (|q| + 1e-8)``,
 which leaves it short of unit length by ~1e-8/|q| (and so scales the rotated window very slightly).
-Here the facing rotation is exactly unit. Measured on the 3 shared subject5 files: windows agree to
-1e-12 with the official arithmetic without that epsilon, and to 0.014 cm (worst joint, worst
-window) with it; the interpolation baseline's L2P differs by < 1e-6 at n = 5, 15, 30, 45.
+Here the facing rotation is exactly unit (docs/design.md §4: how far the two differ).
 
 Everything works on numpy float64 arrays with leading window axis N and is vectorised over windows
 (no Python loop over windows or frames).

@@ -142,7 +142,7 @@ class MoEDense(Layer):
     stored as (in, E, out), so all experts' outputs come from one plain 2-D matmul x @ kernel.reshape(in, E*out)
     followed by the weighted sum over experts. That equals using the blended weights sum_e c_e W_e, never
     materialises a per-example weight matrix, and (unlike a 3-D einsum) leaves XLA no weight-sized
-    transposes to do inside the rollout's scan: the train step is ~16-24% faster on a CPU.
+    transposes to do inside the rollout's scan (benchmarks/README.md has the train step's time).
     x may be a tuple of parts, joined along the last axis.
     """
 

@@ -29,8 +29,8 @@ def noise_ramp(num_steps: int, ramp_steps: int) -> np.ndarray:
     """(num_steps,) factors on each direction's latent noise: i / ramp_steps at step i (0-based), 1 from
     step ramp_steps on. Step 0 of each direction makes the frame next to its keyframe, so with a ramp those
     frames come from the prior's mean and the samples part towards mid-transition, where the keyframes
-    constrain the motion least. ramp_steps = 0: 1 everywhere (the paper's sampling). Not in the paper: it
-    is an inference setting (measured in results/README.md, "Noise ramp")."""
+    constrain the motion least. ramp_steps = 0: 1 everywhere (the paper's sampling). Not in the paper: an
+    inference setting, part of a model's default sampling."""
     if int(ramp_steps) != ramp_steps or ramp_steps < 0:  # a fraction would be truncated silently
         raise ValueError(f"noise_ramp_steps must be a whole number of steps >= 0, got {ramp_steps}")
     ramp_steps = int(ramp_steps)

@@ -31,7 +31,7 @@ __all__ = ["OUTPUTS", "OFFSET_FROM", "inbetween_takes", "inbetween_clip", "confo
            "check_root_speed", "LAFAN1_ROOT_SPEED_P99"]
 
 # cm/s: the 99th percentile of the horizontal root speed of LAFAN1's training windows (subjects 1-4 of the
-# 27 files, windows 50 / offset 20 at 30 fps; results/2026-12-04_root_speed/root_speed.json). The limit of
+# 27 files, windows 50 / offset 20 at 30 fps). The limit of
 # checkpoints saved before bin/train recorded their own (stats["root_speed_p99"]).
 LAFAN1_ROOT_SPEED_P99 = 330.8
 

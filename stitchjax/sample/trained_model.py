@@ -33,7 +33,6 @@ from stitchjax import checkpoints, parallel
 from stitchjax.accel import matmul as accel_matmul
 from stitchjax.data import conform, datasets, features, phase
 from stitchjax.model import networks
-from stitchjax import RELEASE_MODEL
 from stitchjax.model import rollout as rollout_lib
 from stitchjax import config as config_lib
 from stitchjax.skeleton import LAFAN1_FEET
@@ -42,6 +41,7 @@ __all__ = ["InbetweenError", "Model", "RELEASE_MODEL", "SAMPLING_KEYS", "check_s
            "model_or_pretrained", "pretrained", "random_model", "with_matmul_dtype"]
 
 MODELS_DIR = pathlib.Path(__file__).resolve().parent.parent / "pretrained"  # exported models shipped with the package
+RELEASE_MODEL = config_lib.RELEASE_MODEL  # the folder of MODELS_DIR that pretrained() loads
 SAMPLING_KEYS = ("noise_scale", "noise_correlation", "noise_ramp_steps")
 MODEL_JSON, PARAMS_FILE = "model.json", "params.msgpack"  # an exported model folder's two files
 FORMAT = "stitchjax-model"
@@ -417,8 +417,8 @@ def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None
 def with_matmul_dtype(model: Model, dtype: str) -> Model:
     """The same model computing its matmuls on ``dtype`` operands ("float32" or "bfloat16", float32
     accumulation either way; see ``accel.matmul.matmul``). Parameters are unchanged, so a float32-trained
-    model can sample in bfloat16: ~1.8x faster on CPUs with AMX / AVX512-BF16 (benchmarks/README.md); with
-    the same seed, joint positions move by ~0.2 cm on average (up to ~1 cm mid-transition)."""
+    model can sample in bfloat16, faster on CPUs with bfloat16 units (AMX / AVX512-BF16); with the same seed
+    the joint positions move a little (benchmarks/README.md has the speed and the change)."""
     try:
         config = config_lib.apply_overrides(model.config, [f"model.matmul_dtype={dtype}"])
     except config_lib.ConfigError as err:

@@ -275,8 +275,8 @@ def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
     dataset: dict of (N, T, ...) arrays from `parallel.shard_dataset`. length: int32 transition length (traced).
     window: frames per training window the losses see (static; None = the dataset's T). Metrics: the
     generator "loss", "disc_loss", every term of both, "length", gradient norms; float32 scalars.
-    Two jitted calls (sampler, then update): keeping the gather out of the update's program was measured
-    to make its compilation several times faster on CPU. The state is donated.
+    Two jitted calls (sampler, then update): the gather stays out of the update's program, which keeps that
+    program smaller and quicker to compile. The state is donated.
     """
     mesh = parallel.make_mesh() if mesh is None else mesh
     sample = make_sampler(config, mesh, window)

@@ -94,6 +94,12 @@ def assert_same_rotation(q, expected, atol=1e-9):
     np.testing.assert_allclose(dots, 1.0, atol=atol)
 
 
+def test_file_stem_drops_the_bvh_and_gz_endings_only():
+    assert bvh.file_stem("data/walk1_subject1.bvh.gz") == "walk1_subject1"
+    assert bvh.file_stem("Take.BVH") == "Take" and bvh.file_stem("take.gz") == "take"
+    assert bvh.file_stem("take.v2.bvh") == "take.v2" and bvh.file_stem("notes.txt") == "notes.txt"
+
+
 def test_custom_hierarchy_channels_and_orders(tmp_path):
     values = custom_values()
     motion = bvh.load(write(tmp_path / "custom.bvh", custom_text(values)))
