@@ -27,8 +27,8 @@ from stitchjax.skeleton import forward_kinematics
 from stitchjax.sample.trained_model import InbetweenError, Model, model_or_pretrained
 
 __all__ = ["OUTPUTS", "OFFSET_FROM", "inbetween_takes", "inbetween_clip", "conform_take", "to_model_frame",
-           "from_model_frame", "default_length", "model_length", "root_speed_limit", "required_root_speed",
-           "check_root_speed", "LAFAN1_ROOT_SPEED_P99"]
+           "from_model_frame", "default_length", "model_length", "root_speed_limit", "fewest_frames",
+           "required_root_speed", "check_root_speed", "LAFAN1_ROOT_SPEED_P99"]
 
 # cm/s: the 99th percentile of the horizontal root speed of LAFAN1's training windows (subjects 1-4 of the
 # 27 files, windows 50 / offset 20 at 30 fps; results/2026-12-04_root_speed/root_speed.json). The limit of
@@ -142,6 +142,12 @@ def required_root_speed(start_root, target_root, length: int, fps: float) -> flo
     return float(np.hypot(gap[0], gap[2])) * float(fps) / (int(length) + 1)
 
 
+def fewest_frames(distance, limit: float, fps: float):
+    """The fewest frames between two keyframes ``distance`` cm apart over the ground (a number or an array)
+    at ``fps`` that keep the mean root speed at or under ``limit`` cm/s: ceil(distance * fps / limit) - 1."""
+    return np.ceil(np.asarray(distance, np.float64) * float(fps) / float(limit)) - 1
+
+
 def check_root_speed(model: Model, start_root, target_root, length: int, take_fps: float | None = None,
                      allow_fast: bool = False) -> float:
     """The required mean root speed (cm/s) of a transition of ``length`` frames at the model's rate, refused
@@ -154,7 +160,7 @@ def check_root_speed(model: Model, start_root, target_root, length: int, take_fp
         gap = np.asarray(target_root, np.float64) - np.asarray(start_root, np.float64)
         distance = float(np.hypot(gap[0], gap[2]))
         take_fps = fps if take_fps is None else float(take_fps)
-        frames = int(np.ceil(distance * take_fps / limit)) - 1
+        frames = int(fewest_frames(distance, limit, take_fps))
         raise InbetweenError(
             f"the transition must carry the root {distance:.0f} cm over the ground in {(length + 1) / fps:.2f} s: "
             f"{speed / 100:.2f} m/s ({speed / fps:.1f} cm/frame at {fps:g} fps) on average, faster than "
