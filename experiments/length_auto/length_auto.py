@@ -34,7 +34,7 @@ VALIDATION = ("fallAndGetUp1_subject1", "ground1_subject4", "obstacles1_subject2
 GAPS = np.arange(10, 51)           # frames between the keyframes
 START_STEP = 10                    # a start keyframe every 10 frames
 QUANTILES = (0.1, 0.5, 0.9)
-FIT_PAIRS = 40000                  # training pairs the quantile regressions are fitted on (random, seed 0)
+FIT_PAIRS = 20000                  # training pairs the quantile regressions are fitted on (random, seed 0)
 # each transform's scale: log(1 + |value| / scale)
 SCALES = {"distance": 50.0, "turn": 30.0, "pose": 10.0, "rise": 10.0, "height": 50.0}
 # the grid: which columns of length.design_matrix each variant uses (the others' coefficients are 0)
@@ -84,7 +84,7 @@ def quantile_fit(x, y, q: float, free, nonnegative) -> np.ndarray:
     bounds += [(0.0, None)] * (2 * n)
     from scipy import sparse
     a_eq = sparse.hstack([sparse.csr_matrix(x), sparse.identity(n), -sparse.identity(n)]).tocsr()
-    result = optimize.linprog(cost, A_eq=a_eq, b_eq=y, bounds=bounds, method="highs")
+    result = optimize.linprog(cost, A_eq=a_eq, b_eq=y, bounds=bounds, method="highs-ipm")
     if not result.success:
         raise RuntimeError(f"quantile {q}: {result.message}")
     return result.x[:k]
