@@ -1,6 +1,7 @@
 """Fit, choose and measure the length model of ``bin/inbetween --length auto`` (stitchjax.sample.length).
 
     python experiments/length_auto/length_auto.py choose --data ../shared/data/lafan1   # fit on training, choose on validation
+    python experiments/length_auto/length_auto.py reference --data ../shared/data/lafan1  # k-NN on validation, not shipped
     python experiments/length_auto/length_auto.py test --data ../shared/data/lafan1     # the chosen model on subject5, once
 
 Keyframe pairs are cut from the takes at every START_STEP-th frame and every gap of GAPS frames (frames between
@@ -203,6 +204,36 @@ def choose(args) -> None:
     print("chosen:", chosen, "written", length.SHIPPED)
 
 
+def reference(args) -> None:
+    """A nonparametric reference on the validation pairs, never shipped: the gaps of the k nearest training
+    pairs (standardised design-matrix columns), their median as the proposal and 10th-90th percentile as the
+    range; shows how much the small model leaves on the table."""
+    from scipy.spatial import cKDTree
+
+    started = time.perf_counter()
+    train, validation, _ = split_files(args.data)
+    tf, tg, _ = pairs(train)
+    vf, vg, _ = pairs(validation)
+    xt, xv = length.design_matrix(tf, SCALES)[:, 1:], length.design_matrix(vf, SCALES)[:, 1:]
+    mean, std = xt.mean(0), xt.std(0)
+    xt, xv = (xt - mean) / std, (xv - mean) / std
+    names = [name for name, _ in length.COLUMNS]
+    results = {}
+    for variant in ("distance+turn+pose", "all"):
+        cols = [names.index(c) for c in VARIANTS[variant]]
+        tree = cKDTree(xt[:, cols])
+        for k in (50, 400):
+            _, index = tree.query(xv[:, cols], k=k)
+            near = tg[index]
+            results[f"knn{k} {variant}"] = score(np.round(np.median(near, 1)), np.percentile(near, 10, 1),
+                                                 np.percentile(near, 90, 1), vg)
+            print(f"knn{k} {variant}", json.dumps(results[f"knn{k} {variant}"]), flush=True)
+    record = {"command": " ".join(sys.argv), "commit": commit(), "machine": platform.node() + ", " + platform.processor(),
+              "wall_s": round(time.perf_counter() - started, 1), "train_pairs": int(len(tg)),
+              "validation_pairs": int(len(vg)), "results": results}
+    (HERE / "reference.json").write_text(json.dumps(record, indent=1) + "\n")
+
+
 def test(args) -> None:
     started = time.perf_counter()
     train, _, test_files = split_files(args.data)
@@ -232,10 +263,10 @@ def test(args) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("stage", choices=("choose", "test"))
+    parser.add_argument("stage", choices=("choose", "reference", "test"))
     parser.add_argument("--data", default=str(REPO.parent / "shared" / "data" / "lafan1"))
     args = parser.parse_args()
-    (choose if args.stage == "choose" else test)(args)
+    {"choose": choose, "reference": reference, "test": test}[args.stage](args)
 
 
 if __name__ == "__main__":
