@@ -1,8 +1,9 @@
 """Fit, choose and measure the length model of ``bin/inbetween --length auto`` (stitchjax.sample.length).
 
-    python experiments/length_auto/length_auto.py choose --data ../shared/data/lafan1   # fit on training, choose on validation
-    python experiments/length_auto/length_auto.py reference --data ../shared/data/lafan1  # k-NN on validation, not shipped
-    python experiments/length_auto/length_auto.py test --data ../shared/data/lafan1     # the chosen model on subject5, once
+    python experiments/length_auto/length_auto.py choose      # fit on training, choose on validation
+    python experiments/length_auto/length_auto.py reference   # k-NN on validation, not shipped
+    python experiments/length_auto/length_auto.py test        # the chosen model on subject5, once
+(--data FOLDER: the LAFAN1 folder, default ../shared/data/lafan1 beside the checkout)
 
 Keyframe pairs are cut from the takes at every START_STEP-th frame and every gap of GAPS frames (frames between
 the keyframes, at 30 fps). choose: fits each variant of VARIANTS on the training takes (LAFAN1 subjects 1-4 less
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import pathlib
 import platform
 import subprocess
@@ -147,6 +149,10 @@ def baseline(feats, speed) -> np.ndarray:
     return np.clip(np.round(feats[:, 0] / speed * 30.0 - 1.0), GAPS.min(), GAPS.max())
 
 
+def machine() -> str:
+    return f"{platform.node()}, {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs"
+
+
 def commit() -> str:
     try:
         return subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True).stdout.strip()
@@ -194,7 +200,7 @@ def choose(args) -> None:
              "chosen_on": f"validation takes {', '.join(VALIDATION)}"}
     model = length.LengthModel(**{**model.__dict__, "notes": notes})
     length.save_length_model(model, length.SHIPPED)
-    record = {"command": " ".join(sys.argv), "commit": commit(), "machine": platform.node() + ", " + platform.processor(),
+    record = {"command": " ".join(sys.argv), "commit": commit(), "machine": machine(),
               "wall_s": round(time.perf_counter() - started, 1), "train_takes": [p.name for p in train],
               "validation_takes": [p.name for p in validation], "train_pairs": int(len(tg)),
               "fit_pairs": int(len(pick)), "validation_pairs": int(len(vg)), "speeds_cm_per_s": speeds,
@@ -228,7 +234,7 @@ def reference(args) -> None:
             results[f"knn{k} {variant}"] = score(np.round(np.median(near, 1)), np.percentile(near, 10, 1),
                                                  np.percentile(near, 90, 1), vg)
             print(f"knn{k} {variant}", json.dumps(results[f"knn{k} {variant}"]), flush=True)
-    record = {"command": " ".join(sys.argv), "commit": commit(), "machine": platform.node() + ", " + platform.processor(),
+    record = {"command": " ".join(sys.argv), "commit": commit(), "machine": machine(),
               "wall_s": round(time.perf_counter() - started, 1), "train_pairs": int(len(tg)),
               "validation_pairs": int(len(vg)), "results": results}
     (HERE / "reference.json").write_text(json.dumps(record, indent=1) + "\n")
@@ -253,7 +259,7 @@ def test(args) -> None:
         sel = (g >= lo) & (g <= hi)
         by_gap[f"{lo}-{hi}"] = {"length_auto": score(pred[sel], low[sel], high[sel], g[sel]),
                                 "baseline_walking_speed": score(base[sel], None, None, g[sel])}
-    record = {"command": " ".join(sys.argv), "commit": commit(), "machine": platform.node() + ", " + platform.processor(),
+    record = {"command": " ".join(sys.argv), "commit": commit(), "machine": machine(),
               "wall_s": round(time.perf_counter() - started, 1), "test_takes": [p.name for p in test_files],
               "test_pairs": int(len(g)), "speeds_cm_per_s": speeds, "variant": model.notes.get("variant"),
               "results": results, "by_gap": by_gap}
