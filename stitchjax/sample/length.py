@@ -1,8 +1,8 @@
 """How many frames a transition between two keyframes should take, proposed from the keyframes alone.
 
-    length_model = load_length_model()                                  # shipped with the package (LAFAN1)
-    proposal = propose_length(length_model, start_pose, target_pose)    # (J, 3) cm positions, (4,) root quats
-    proposal.frames, proposal.low, proposal.high                        # at length_model.fps
+    length_model = load_length_model()             # shipped with the package (LAFAN1's skeleton, 30 fps)
+    proposal = propose_length(length_model, start_positions, start_root, target_positions, target_root)
+    proposal.frames, proposal.low, proposal.high   # at length_model.fps; positions (J, 3) cm, roots (4,) quats
 
 The keyframes are described by a few numbers (:func:`pair_features`, :data:`FEATURES`): how far the root
 travels over the ground, how far the body turns, how different the two poses are in the body's own frame,
@@ -10,8 +10,8 @@ how much the root rises or falls, and how high it is. A length model maps them t
 between the keyframes that captured motion took for pairs like them: three quantile regressions (low,
 middle, high) of log(frames + 1) on transforms of those numbers, with coefficients on the amounts of change
 kept non-negative, so more change never proposes fewer frames. The middle quantile is the proposal, the
-low and high ones the plausible range. Its fit (``experiments/length_auto``) is stored as JSON
-(:func:`save_length_model`), beside the release model.
+low and high ones the plausible range. The fitted model is stored as JSON (:func:`save_length_model`) beside
+the release model; it was fitted on keyframe pairs cut from LAFAN1's training takes at gaps of 10-50 frames.
 
 Everything is in the model's terms: centimetres, +Y up, the model's frame rate; :mod:`stitchjax.sample.takes`
 brings takes there and counts the proposal back in a take's own frames.
@@ -27,9 +27,9 @@ import numpy as np
 from stitchjax import RELEASE_MODEL
 from stitchjax import rotations as R
 
-__all__ = ["FEATURES", "LENGTH_MODEL_FILE", "LengthModel", "Proposal", "pair_features", "design_matrix",
-           "propose_length", "propose_lengths", "proposal_frames", "load_length_model", "save_length_model", "length_model_for",
-           "LengthModelError"]
+__all__ = ["FEATURES", "COLUMNS", "MONOTONE", "LENGTH_MODEL_FILE", "LengthModel", "Proposal", "pair_features",
+           "design_matrix", "propose_length", "propose_lengths", "proposal_frames", "load_length_model",
+           "save_length_model", "length_model_for", "LengthModelError"]
 
 # the numbers that describe a keyframe pair, in this order (units: cm, degrees)
 FEATURES = ("distance", "turn", "pose", "rise", "height")
@@ -197,16 +197,16 @@ def load_length_model(path=None) -> LengthModel:
     try:
         description = json.loads(path.read_text())
     except (OSError, ValueError) as error:
-        raise LengthModelError(f"length model {path} cannot be read ({error}); reinstall stitchjax or fit it "
-                               f"again (experiments/length_auto)") from None
+        raise LengthModelError(f"length model {path} cannot be read ({error}); reinstall stitchjax") from None
     if description.get("format") != FORMAT or description.get("version") != FORMAT_VERSION:
         raise LengthModelError(f"{path}: not a {FORMAT} version {FORMAT_VERSION} file")
     if description.get("features") != list(FEATURES) or description.get("columns") != (
             ["intercept"] + [f"{t}({name})" for name, t in COLUMNS]):
-        raise LengthModelError(f"{path}: fitted on other features ({description.get('columns')}); fit it again")
+        raise LengthModelError(f"{path}: fitted on other features ({description.get('columns')}); reinstall stitchjax")
     coefficients = np.asarray(description["coefficients"], np.float64)
     if coefficients.shape != (3, 1 + len(COLUMNS)):
-        raise LengthModelError(f"{path}: coefficients of shape {coefficients.shape}, expected {(3, 1 + len(COLUMNS))}")
+        raise LengthModelError(f"{path}: coefficients of shape {coefficients.shape}, expected "
+                               f"{(3, 1 + len(COLUMNS))}")
     return LengthModel(fps=float(description["fps"]), quantiles=tuple(float(q) for q in description["quantiles"]),
                        scales={k: float(v) for k, v in description["scales"].items()}, coefficients=coefficients,
                        min_frames=int(description["min_frames"]), max_frames=int(description["max_frames"]),

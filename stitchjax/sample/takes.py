@@ -5,6 +5,8 @@ transitions returned as takes.
     clips = inbetween_clip(model, motion, 100, 140, num_samples=8)   # whole takes, frames 101..139 replaced
     placed = inbetween_takes(model, take, 100, other, 50, length=20, offset=(300, 0, 0), turn_degrees=90)
     # the target's root 300 cm from the start keyframe's root (offset_from="start", the default)
+    proposal = propose_take_length(model, take, 100, other, 50)   # frames (low..high) for these keyframes
+    clips = inbetween_clip(model, motion, 100, 140, length="auto")   # the proposed frames between, not 39
 
 Each take is brought onto the model's terms first (:func:`conform_take`: units, up axis, joints by name,
 bone lengths checked), the target take placed by an offset (from the start keyframe's root, or from where
