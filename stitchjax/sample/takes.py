@@ -5,6 +5,8 @@ transitions returned as takes.
     clips = inbetween_clip(model, motion, 100, 140, num_samples=8)   # whole takes, frames 101..139 replaced
     placed = inbetween_takes(model, take, 100, other, 50, length=20, offset=(300, 0, 0), turn_degrees=90)
     # the target's root 300 cm from the start keyframe's root (offset_from="start", the default)
+    proposal = propose_take_length(model, take, 100, other, 50)   # frames (low..high) for these keyframes
+    clips = inbetween_clip(model, motion, 100, 140, length="auto")   # the proposed frames between, not 39
 
 Each take is brought onto the model's terms first (:func:`conform_take`: units, up axis, joints by name,
 bone lengths checked), the target take placed by an offset (from the start keyframe's root, or from where
@@ -17,18 +19,21 @@ back to the start take's frame rate (:func:`stitchjax.data.conform.retime`), uni
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from stitchjax.data import conform
 from stitchjax import rotations as R
 from stitchjax.data.bvh import Motion
+from stitchjax.sample import length as length_lib
 from stitchjax.sample.inbetween import _check_request, _check_skeleton, check_length, inbetween, keyframe_contacts
 from stitchjax.skeleton import forward_kinematics
 from stitchjax.sample.trained_model import InbetweenError, Model, model_or_pretrained
 
 __all__ = ["OUTPUTS", "OFFSET_FROM", "inbetween_takes", "inbetween_clip", "conform_take", "to_model_frame",
-           "from_model_frame", "default_length", "model_length", "root_speed_limit", "required_root_speed",
-           "check_root_speed", "LAFAN1_ROOT_SPEED_P99"]
+           "from_model_frame", "default_length", "model_length", "root_speed_limit", "fewest_frames",
+           "required_root_speed", "check_root_speed", "propose_take_length", "LAFAN1_ROOT_SPEED_P99"]
 
 # cm/s: the 99th percentile of the horizontal root speed of LAFAN1's training windows (subjects 1-4 of the
 # 27 files, windows 50 / offset 20 at 30 fps). The limit of
@@ -142,6 +147,12 @@ def required_root_speed(start_root, target_root, length: int, fps: float) -> flo
     return float(np.hypot(gap[0], gap[2])) * float(fps) / (int(length) + 1)
 
 
+def fewest_frames(distance, limit: float, fps: float):
+    """The fewest frames between two keyframes ``distance`` cm apart over the ground (a number or an array)
+    at ``fps`` that keep the mean root speed at or under ``limit`` cm/s: ceil(distance * fps / limit) - 1."""
+    return np.ceil(np.asarray(distance, np.float64) * float(fps) / float(limit)) - 1
+
+
 def check_root_speed(model: Model, start_root, target_root, length: int, take_fps: float | None = None,
                      allow_fast: bool = False) -> float:
     """The required mean root speed (cm/s) of a transition of ``length`` frames at the model's rate, refused
@@ -154,7 +165,7 @@ def check_root_speed(model: Model, start_root, target_root, length: int, take_fp
         gap = np.asarray(target_root, np.float64) - np.asarray(start_root, np.float64)
         distance = float(np.hypot(gap[0], gap[2]))
         take_fps = fps if take_fps is None else float(take_fps)
-        frames = int(np.ceil(distance * take_fps / limit)) - 1
+        frames = int(fewest_frames(distance, limit, take_fps))
         raise InbetweenError(
             f"the transition must carry the root {distance:.0f} cm over the ground in {(length + 1) / fps:.2f} s: "
             f"{speed / 100:.2f} m/s ({speed / fps:.1f} cm/frame at {fps:g} fps) on average, faster than "
@@ -198,6 +209,48 @@ def _at_rate(take: Motion, fps: float, frame: int) -> tuple:
         raise InbetweenError(str(error)) from None
 
 
+def _proposal_at(proposal: length_lib.Proposal, fps: float) -> length_lib.Proposal:
+    """``proposal`` counted at ``fps``: the same durations, (frames + 1) frame steps each, rounded."""
+    ratio = float(fps) / proposal.fps
+    if abs(ratio - 1.0) <= 1e-9:
+        return proposal
+    frames = [max(int(round((n + 1) * ratio)) - 1, 1) for n in (proposal.low, proposal.frames, proposal.high)]
+    return dataclasses.replace(proposal, low=frames[0], frames=frames[1], high=frames[2], fps=float(fps))
+
+
+def propose_take_length(model: Model, start_take: Motion, start_frame: int, target_take: Motion,
+                        target_frame: int, *, offset=(0.0, 0.0, 0.0), turn_degrees: float = 0.0, scale: float = 1.0,
+                        offset_from: str = "start", length_model: length_lib.LengthModel | None = None
+                        ) -> length_lib.Proposal:
+    """The proposed transition length between two keyframes, placed as :func:`inbetween_takes` places them
+    (same arguments), counted at the start take's frame rate: a :class:`stitchjax.sample.length.Proposal`
+    (frames, plausible low..high, the root distance and turn). length_model: default the one shipped for the
+    model's skeleton (:func:`stitchjax.sample.length.length_model_for`; InbetweenError for another skeleton).
+    Every number is at least the fewest frames that keep the root under :func:`root_speed_limit`."""
+    model = model_or_pretrained(model)
+    _check_takes_request(start_take, start_frame, target_take, target_frame, "transition", offset_from, scale)
+    if length_model is None:
+        try:
+            length_model = length_lib.length_model_for(model.joint_names, model.forward_axis)
+        except length_lib.LengthModelError as error:
+            raise InbetweenError(str(error)) from None
+    same = target_take is start_take
+    start_take = conform_take(model, start_take, "the start take", scale)
+    target_take = start_take if same else conform_take(model, target_take, "the target take", scale)
+    target_take = _placed_target(model, start_take, start_frame, target_take, target_frame, offset, turn_degrees,
+                                 scale, offset_from, same)
+    poses = []
+    for take, frame in ((start_take, start_frame), (target_take, target_frame)):
+        rotations, positions = forward_kinematics(take.rotations[[frame]], take.positions[[frame]],
+                                                  take.skeleton.parents)
+        poses += [positions[0], rotations[0, 0]]
+    gap = poses[2][0] - poses[0][0]
+    limit, _ = root_speed_limit(model)
+    floor = int(fewest_frames(np.hypot(gap[0], gap[2]), limit, length_model.fps))
+    proposal = length_lib.propose_length(length_model, *poses, min_frames=floor)
+    return _proposal_at(proposal, float(start_take.fps))
+
+
 def _check_takes_request(start_take, start_frame, target_take, target_frame, output: str, offset_from: str,
                          scale: float) -> None:
     """InbetweenError naming the first bad argument of :func:`inbetween_takes`."""
@@ -237,7 +290,7 @@ def _take_outputs(model: Model, samples: list, start_take: Motion, start_frame: 
 
 
 def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_take: Motion, target_frame: int,
-                    length: int | None = None, num_samples: int = 1, seed=0, search: int = 0, *,
+                    length: int | str | None = None, num_samples: int = 1, seed=0, search: int = 0, *,
                     offset=(0.0, 0.0, 0.0), turn_degrees: float = 0.0, output: str = "appended",
                     scale: float = 1.0, allow_extrapolation: bool = False, noise_scale: float | None = None,
                     noise_ramp_steps: int | None = None, noise_correlation: float | None = None,
@@ -256,7 +309,8 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     frame rate anchored at their keyframes (kept exactly), and a transition whose mean root speed would
     exceed the training data's (:func:`check_root_speed`) is refused unless ``allow_fast``.
     length: frames between the keyframes in the output, counted at the start take's frame rate (default:
-      the frames between them when both come from one take; required otherwise). The model generates
+      the frames between them when both come from one take; required otherwise), or "auto": the proposal of
+      :func:`propose_take_length` for these keyframes, placed. The model generates
       :func:`model_length` frames at its own rate for the same duration; at another rate than the take's
       they are resampled back onto the ``length`` frames (:func:`stitchjax.data.conform.retime`).
     output: "transition" = the start keyframe, L generated frames, the placed target keyframe (L + 2 frames);
@@ -273,6 +327,11 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     _check_takes_request(start_take, start_frame, target_take, target_frame, output, offset_from, scale)
     same = target_take is start_take
     take_fps, fps = float(start_take.fps), float(model.config.data.fps)
+    if isinstance(length, str):
+        if length != "auto":
+            raise InbetweenError(f"length {length!r}: give a number of frames, or 'auto' to have it proposed")
+        length = propose_take_length(model, start_take, start_frame, target_take, target_frame, offset=offset,
+                                     turn_degrees=turn_degrees, scale=scale, offset_from=offset_from).frames
     if length is None:
         length = default_length(model, start_take, start_frame, target_frame, same)
     generated = model_length(model, take_fps, length)
@@ -295,14 +354,15 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
                          take_fps, output, scale)
 
 
-def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: int, length: int | None = None,
+def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: int, length: int | str | None = None,
                    num_samples: int = 1, seed=0, search: int = 0, allow_extrapolation: bool = False, *,
                    noise_scale: float | None = None, noise_ramp_steps: int | None = None,
                    noise_correlation: float | None = None, allow_fast: bool = False, foot_lock=False) -> list:
     """Replace the frames between two keyframes of a take by generated transitions.
 
     Keyframes: ``motion`` frames ``start_frame`` (A) and ``end_frame`` (B), A < B. length: generated
-    frames (default B - A - 1, the frames replaced). Returns ``num_samples`` Motions: frames 0..A of
+    frames (default B - A - 1, the frames replaced; "auto": proposed from the keyframes,
+    :func:`propose_take_length`). Returns ``num_samples`` Motions: frames 0..A of
     ``motion``, L generated frames, frames B..end of ``motion`` (T - (B - A - 1) + L frames).
     Contacts of the keyframes: measured against frame A - 1 and B + 1 (the frames being replaced are
     never looked at), or the other side at the ends of the take.

@@ -63,7 +63,7 @@ def test_release_model_is_what_the_release_config_trains(release):
 
 
 def test_release_folder_holds_only_what_sampling_needs():
-    assert sorted(p.name for p in RELEASE.iterdir()) == ["model.json", "params.msgpack"]
+    assert sorted(p.name for p in RELEASE.iterdir()) == ["length_model.json", "model.json", "params.msgpack"]
     assert sum(p.stat().st_size for p in RELEASE.iterdir()) < 10 * 2**20
     description = json.loads((RELEASE / "model.json").read_text())
     from flax import serialization
