@@ -28,7 +28,7 @@ __all__ = [
     "DataConfig", "ModelConfig", "LossConfig", "TrainConfig", "PhaseConfig", "Config",
     "load_config", "apply_overrides", "to_dict", "from_dict", "save_config", "read_config",
     "configs_dir", "ConfigError", "variant", "CHOICES", "POSTERIOR_ONLY_FIELDS", "inert_fields",
-    "check_overrides_take_effect", "EXTENSIONS", "extensions_on",
+    "check_overrides_take_effect", "EXTENSIONS", "ABLATION_SWITCHES", "extensions_on",
 ]
 
 
@@ -76,11 +76,13 @@ class DataConfig:
 @dataclasses.dataclass(frozen=True)
 class ModelConfig:
     """The two generators (encoders, LSTM, latent Gaussians, phase-gated experts) and the discriminators."""
-    # --- the paper (sections 3 and 4.4); the four switches are the ablations of section 5.3
+    # --- the paper (sections 3 and 4.4); the six switches are the ablations of section 5.3 and Appendix D
     bidirectional: bool = True  # paper; False = forward generator only, targets the end keyframe
     latent_interpolation: bool = True  # paper; False = sample from the current-frame Gaussian only
     bidirectional_aligning: bool = True  # paper; False = each generator targets the given end keyframe
     phase_modulation: bool = True  # paper; False = plain MLP decoder (no gating, no phase input)
+    discriminators: bool = True  # paper; False = no discriminators: no L_G, no L_D, no discriminator update
+    lstm: bool = True  # paper; False = the concatenated encoder embeddings go straight to the latent heads
     num_experts: int = 4  # paper
     gamma_schedule: str = "direction"  # paper: gamma rises from 0 at the generator's first frame to 1 at the
     # frame it targets, n / (frames this direction makes); "transition" = n / (L + 1) for both directions
@@ -421,8 +423,9 @@ def to_dict(config: Config) -> dict:
 
 
 def from_dict(d: dict) -> Config:
-    """Inverse of :func:`to_dict`. Unknown keys raise ConfigError. A missing field of :data:`EXTENSIONS` takes
-    its default (the paper's behaviour, which is also what a run did before the field existed); any other
+    """Inverse of :func:`to_dict`. Unknown keys raise ConfigError. A missing field of :data:`EXTENSIONS` or
+    :data:`ABLATION_SWITCHES` takes its default (the paper's behaviour, which is also what a run did before the
+    field existed); any other
     missing field raises ConfigError naming the fields to add (with the values the run was trained with)."""
     kwargs, missing = {}, []
     classes = {f.name: f.default_factory for f in dataclasses.fields(Config) if f.name in _SECTIONS}
@@ -435,7 +438,8 @@ def from_dict(d: dict) -> Config:
         cls = classes[key]
         types_ = _field_types(cls)
         fields = {}
-        missing += [f"{key}.{name}" for name in types_ if name not in value and f"{key}.{name}" not in EXTENSIONS]
+        missing += [f"{key}.{name}" for name in types_
+                    if name not in value and f"{key}.{name}" not in EXTENSIONS + ABLATION_SWITCHES]
         for name, v in value.items():
             if (key, name) in RETIRED_FIELDS:
                 continue
@@ -481,6 +485,10 @@ EXTENSIONS = (
     "train.lr_decay_to", "train.lr_decay_from_step", "train.lr_decay_until_step", "train.length_after_schedule",
 )
 """Every mechanism the paper does not have ("section.field"), off at its default; :func:`extensions_on`."""
+
+ABLATION_SWITCHES = ("model.discriminators", "model.lstm")
+"""Switches that turn a part of the paper's model off (Appendix D), added after runs were saved with the part on:
+:func:`from_dict` gives a saved config without one its default (on)."""
 
 CHOICES = {
     ("data", "dataset"): ("lafan1", "h36m", "bvh_folder"),  # stitchjax.data.datasets.REGISTRY has one entry each

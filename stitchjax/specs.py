@@ -56,13 +56,14 @@ class LossSpec:
 
     loss: ``config.loss`` (frozen: betas, alphas, reduction, KL and prior settings, foot terms);
     posterior: ``model.posterior`` ("none" = the paper's KL(p || N(0, I))); bidirectional: both generators
-    are scored; discriminators: the two discriminators (``networks.DiscriminatorSpec``).
+    are scored; discriminators: the two discriminators (``networks.DiscriminatorSpec``), None without them
+    (``model.discriminators=false``: no adversarial terms, no discriminator update).
     """
 
     loss: Any
     posterior: str
     bidirectional: bool
-    discriminators: networks.DiscriminatorSpec
+    discriminators: networks.DiscriminatorSpec | None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,7 +93,7 @@ def loss_spec(config) -> LossSpec:
     """The :class:`LossSpec` of `config` (``config.loss`` and the model switches the objective reads)."""
     m = config.model
     return LossSpec(loss=config.loss, posterior=m.posterior, bidirectional=m.bidirectional,
-                    discriminators=networks.discriminator_spec(config))
+                    discriminators=networks.discriminator_spec(config) if m.discriminators else None)
 
 
 def train_spec(config) -> TrainSpec:

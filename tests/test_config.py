@@ -118,6 +118,8 @@ def test_a_saved_config_lacking_a_field_outside_the_extensions_is_refused_naming
     for name in ("noise_correlation", "posterior_horizon"):  # extensions: their default is the paper's (off)
         del saved["model"][name]
     del saved["data"]["mirror"]
+    for name in ("discriminators", "lstm"):  # Appendix D's switches: a run saved before them had both parts
+        del saved["model"][name]
     assert C.from_dict(saved) == C.load_config("tiny")
     del saved["model"]["posterior"], saved["phase"]["include_reversed"]
     with pytest.raises(C.ConfigError, match="lacks model.posterior, phase.include_reversed: add them"):
@@ -153,11 +155,6 @@ def test_every_named_config_keeps_its_values():
     assert all(config.name == name for name, config in configs.items())
     paper = configs["lafan1"]
     assert paper == dataclasses.replace(C.Config(), name="lafan1")  # the paper: every default
-    for name, field in [("ablate_no_aligning", "model.bidirectional_aligning"),
-                        ("ablate_no_bidirectional", "model.bidirectional"),
-                        ("ablate_no_latent_interpolation", "model.latent_interpolation"),
-                        ("ablate_no_phase", "model.phase_modulation"), ("ablate_no_stitch_loss", "loss.stitch_weight")]:
-        assert _differences(configs[name], paper) == {field}, name
     quick = configs["quickstart"]
     assert (quick.data.window, quick.data.offset, quick.model.lstm_size, quick.model.latent_dim) == (24, 8, 64, 16)
     assert (quick.train.batch_size, quick.train.learning_rate, quick.train.max_length) == (16, 1e-3, 22)
@@ -182,6 +179,49 @@ def test_every_named_config_keeps_its_values():
     release = configs["lafan1_cpu_release"]
     assert release.data.validation_files == cpu.data.validation_files and release.train.max_steps == 64000
     assert (release.loss.kl_weight, release.loss.foot_skate_weight, release.train.lr_decay_to) == (0.1, 128.0, 0.05)
+    base = configs["paper_cpu"]  # lafan1_cpu with the release recipe's data options and a longer run
+    assert _differences(base, cpu) == {"data.extra_train_dirs", "data.random_starts", "data.mirror",
+                                       "train.max_steps", "train.checkpoint_every_steps", "train.eval_every",
+                                       "train.eval_windows"}
+    assert {f: getattr(base.data, f) for f in ("extra_train_dirs", "random_starts", "mirror")} == {
+        f: getattr(release.data, f) for f in ("extra_train_dirs", "random_starts", "mirror")}
+    assert C.extensions_on(base) == ("data.validation_files", "data.extra_train_dirs", "data.random_starts",
+                                     "data.mirror")
+    assert (base.train.max_steps, base.train.lr_decay_to, base.train.eval_lengths) == (16000, 1.0, (30, 50))
+    h36m_cpu = configs["h36m_cpu"]  # paper_cpu's model, loss and schedule on h36m's data, no validation
+    assert h36m_cpu.data == h36m.data and (h36m_cpu.model, h36m_cpu.loss, h36m_cpu.phase) == (
+        base.model, base.loss, base.phase)
+    assert _differences(h36m_cpu, base) - {f"data.{f.name}" for f in dataclasses.fields(C.DataConfig)} == {
+        "train.eval_every"} and h36m_cpu.train.eval_every == 0 and C.extensions_on(h36m_cpu) == ()
+
+
+def _ablations() -> dict:
+    """configs/paper_cpu.py's ABLATIONS: name -> (the paper's label, the "section.field=value" it sets)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("paper_cpu_registry", C.configs_dir() / "paper_cpu.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.ABLATIONS, module.SEEDS
+
+
+def test_each_ablation_differs_from_its_base_in_exactly_its_one_field():
+    """Every ablation of the registry, on the CPU base and on the GPU-width lafan1, changes one field: the one it
+    names, away from the paper's value; the base's seeds differ in train.seed alone."""
+    ablations, seeds = _ablations()
+    labels = [label for label, _ in ablations.values()]
+    assert labels == ["w/o BS", "w/o SL", "w/o LI", "w/o BA", "w/o PM", "w/o D", "w/o LSTM"]
+    for base_name in ("paper_cpu", "lafan1"):
+        base = C.load_config(base_name)
+        for name, (_, override) in ablations.items():
+            field = override.split("=")[0]
+            ablated = C.apply_overrides(base, [override])
+            assert _differences(ablated, base) == {field}, (base_name, name)
+    base = C.load_config("paper_cpu")
+    assert len(seeds) >= 2 and seeds[0] == base.train.seed
+    for seed in seeds[1:]:
+        assert _differences(C.apply_overrides(base, [f"train.seed={seed}"]), base) == {"train.seed"}
+    assert set(C.ABLATION_SWITCHES) <= {override.split("=")[0] for _, override in ablations.values()}
 
 
 def test_a_variant_finds_its_base_beside_it(tmp_path, monkeypatch):

@@ -5,6 +5,7 @@ Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step:
     state (S) ──► state encoder  (3 FC) ─┐
     offset (J*4+3 [+1]) ► offset encoder (3 FC) ─┼─ concat ─► LSTM cell ─► h ─┬─► FC ─► (mu, logvar)   current
     target (S) ─► target encoder (3 FC) ─┘                                    └─► FC ─► (mu_t, logvar_t) target
+    (model.lstm=false: h = the concatenated embeddings, no LSTM cell)
     latent interpolation (Eq. 1): prior p = N((1-g) mu + g mu_t, sigma_g^2)
     posterior (training, model.posterior="next_frame"): q = N(mu_q, sigma_q^2) from [h, ground-truth next frame]
     z = mu + sigma * eps from q at training, from p at inference (and always with posterior "none")
@@ -77,7 +78,8 @@ class GeneratorSpec:
     num_joints J, num_contacts C: the state's sizes (S = J*4 + 3 + C); latent_dim, lstm_size,
     encoder_widths, decoder_widths, gating_widths, num_experts: layer sizes; activation, matmul_dtype;
     switches of ``config.model``: latent_interpolation (Eq. 1), variance_blend, posterior, decoder_uses_lstm,
-    z_every_layer, phase_modulation, time_to_target_input (one more offset input).
+    z_every_layer, phase_modulation, time_to_target_input (one more offset input), lstm (False: the
+    concatenated embeddings are ``h``, no recurrence; the carry passes through unchanged).
     layers: the generator's (dense, lstm_cell, moe_dense) layer classes (:class:`Generator`; () = the plain
     ones of :mod:`stitchjax.model.layers`), the choice of whoever runs the model.
     """
@@ -99,6 +101,7 @@ class GeneratorSpec:
     z_every_layer: bool
     phase_modulation: bool
     time_to_target_input: bool
+    lstm: bool = True
     layers: tuple = ()
 
 
@@ -111,7 +114,7 @@ def generator_spec(config) -> GeneratorSpec:
         gating_widths=tuple(m.gating_widths), num_experts=m.num_experts, activation=m.activation,
         matmul_dtype=m.matmul_dtype, latent_interpolation=m.latent_interpolation, variance_blend=m.variance_blend,
         posterior=m.posterior, decoder_uses_lstm=m.decoder_uses_lstm, z_every_layer=m.z_every_layer,
-        phase_modulation=m.phase_modulation, time_to_target_input=m.time_to_target_input)
+        phase_modulation=m.phase_modulation, time_to_target_input=m.time_to_target_input, lstm=m.lstm)
 
 
 class Generator(nn.Module):
@@ -131,7 +134,7 @@ class Generator(nn.Module):
         """One step for one example (vmap for batches).
 
         Args:
-          carry: LSTM carry (c (H,), h (H,)).
+          carry: LSTM carry (c (H,), h (H,)); returned unchanged without the LSTM (``model.lstm=false``).
           state, target: (S,) current and target character states.
           offset: (J*4 + 3 [+ 1]) offset features (+ time to target when model.time_to_target_input).
           gamma: () latent interpolation weight in [0, 1].
@@ -155,7 +158,10 @@ class Generator(nn.Module):
         e_state = encoder(name="state_encoder")(state)
         e_offset = encoder(name="offset_encoder")(offset)
         e_target = encoder(name="target_encoder")(target)
-        carry, h = self.lstm_cell(m.lstm_size, dt, name="lstm")(carry, (e_state, e_offset, e_target))
+        if m.lstm:
+            carry, h = self.lstm_cell(m.lstm_size, dt, name="lstm")(carry, (e_state, e_offset, e_target))
+        else:  # model.lstm=false (Appendix D): no recurrence, the embeddings themselves feed the heads
+            h = jnp.concatenate([e_state, e_offset, e_target], axis=-1)
         current_head = self.dense(2 * latent, dt, name="current_head")(h)
         target_head = self.dense(2 * latent, dt, name="target_head")(h)
         mu, logvar = current_head[..., :latent], current_head[..., latent:]

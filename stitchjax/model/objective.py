@@ -16,7 +16,8 @@ with "none" the paper's KL(p || N(0, I)).
 
 L_state, L_kl and L_fk are averaged over the forward and backward generators. The generator update
 minimises ``generator_loss`` (everything but L_D); the discriminator update minimises
-``discriminator_loss`` = 0.1 L_D. One train step does ONE rollout (``generator_rollouts``), which
+``discriminator_loss`` = 0.1 L_D (``model.discriminators=false``, Appendix D: neither L_G nor L_D, and no
+discriminator update). One train step does ONE rollout (``generator_rollouts``), which
 ``generator_objective`` scores; it returns the (stop-gradient) discriminator features of the generated
 motion as its third output, which ``discriminator_loss`` takes as its ``generated`` argument. The
 objective reads frozen specs built once where the train step is made (``stitchjax.specs``): a
@@ -58,8 +59,8 @@ def generator_loss(params, phase_params, batch, key, spec, length, kl_scale=1.0,
       rollout_batch: the batch's rollout (``batch.rollout_batch``, or one with its signature and values).
     Returns:
       (total, terms, generated): total scalar; terms dict of scalars "state", "kl", "kl_prior", "fk",
-      "stitch", "adv_g", "adv_g_short", "adv_g_long", "rotation", "velocity", "contact" (and per-direction
-      "state_forward", ...; "foot_skate" with ``loss.foot_skate_weight``; "prior_error_mean" and
+      "stitch", "adv_g", "adv_g_short", "adv_g_long" (not without discriminators), "rotation", "velocity",
+      "contact" (and per-direction "state_forward", ...; "foot_skate" with ``loss.foot_skate_weight``; "prior_error_mean" and
       "prior_error_best" with ``loss.prior_best_of`` > 1: the prior copies' mean distance per joint to the
       ground truth, and that of the copies the state and FK terms score); generated = {"features" (B, T, F)
       stop-gradient discriminator input of the stitched motion the adversarial terms saw, "mask" (B, T)}
@@ -134,7 +135,8 @@ def generator_objective(params, out, sampled, batch, length, spec, skeleton, kl_
     if sampled is not out:
         terms["stitch_posterior"] = jax.lax.stop_gradient(_overlap_stitching_loss(out, lc, skeleton))
     terms["stitch"] = _overlap_stitching_loss(sampled, lc, skeleton)
-    terms.update(adversarial_generator_terms(params, sampled, spec, skeleton))
+    if spec.discriminators is not None:  # model.discriminators=false: no adversarial term at all
+        terms.update(adversarial_generator_terms(params, sampled, spec, skeleton))
     if lc.foot_skate_weight:
         terms["foot_skate"] = _foot_skate_term(out, batch, lc, skeleton)
     if lc.foot_velocity_weight:
@@ -144,7 +146,7 @@ def generator_objective(params, out, sampled, batch, length, spec, skeleton, kl_
     kl_weight = lc.kl_weight * kl_scale
     prior_kl = lc.prior_kl_weight * terms["kl_prior"] if spec.posterior != "none" else 0.0
     total = (terms["state"] + kl_weight * terms.pop("kl_penalty") + prior_kl + lc.stitch_weight * terms["stitch"]
-             + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"]
+             + lc.fk_weight * terms["fk"] + lc.gen_weight * terms.get("adv_g", 0.0)
              + lc.foot_skate_weight * terms.get("foot_skate", 0.0)
              + lc.foot_velocity_weight * terms.get("foot_velocity", 0.0)
              + lc.ground_penetration_weight * terms.get("ground_penetration", 0.0))
@@ -160,9 +162,11 @@ def discriminator_loss(params, phase_params, batch, key, spec, length, generated
 
     spec: ``specs.TrainSpec``. generated: the third output of :func:`generator_loss` (reuses its rollout);
     None = run a rollout here (``batch.rollout_batch``, under stop_gradient). Returns (total, {"adv_d",
-    "adv_d_short", "adv_d_long", "d_real", "d_fake"}).
+    "adv_d_short", "adv_d_long", "d_real", "d_fake"}). ValueError for a model without discriminators.
     """
     skeleton, ls, discriminators = spec.skeleton, spec.loss, spec.loss.discriminators
+    if discriminators is None:
+        raise ValueError("the model has no discriminators (model.discriminators=false): there is no L_D to train")
     if generated is None:
         out = batch_lib.rollout_batch(jax.lax.stop_gradient(params), phase_params, batch, key, spec.rollout,
                                       length)

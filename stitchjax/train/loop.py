@@ -167,7 +167,8 @@ def make_sampler(config, mesh: Mesh | None = None, window: int | None = None):
 
 def make_update_step(config, mesh: Mesh | None = None,
                      generator_loss: Callable | None = None, discriminator_loss: Callable | None = None):
-    """Jitted `update(state, batch, length) -> (state, metrics)`: one update of all four networks.
+    """Jitted `update(state, batch, length) -> (state, metrics)`: one update of all four networks (of the two
+    generators alone with `model.discriminators=false`: `discriminator_loss` is then never called).
 
     batch: dict of (B, T, ...) arrays (batch axis sharded over the mesh). ONE rollout per generator
     (inside `generator_loss`, whose third output, when present, is handed to `discriminator_loss`). Both
@@ -183,6 +184,7 @@ def make_update_step(config, mesh: Mesh | None = None,
     optimizer = make_optimizer(config.train)
     spec = specs.train_spec(config)
     tc = config.train  # the update reads no other setting (but _loss_options' KL warm-up)
+    adversarial = spec.loss.discriminators is not None  # model.discriminators=false: no discriminator update
 
     def update(state: TrainState, batch: dict, length: jax.Array):
         key = jax.random.fold_in(state.key, state.step)
@@ -191,10 +193,14 @@ def make_update_step(config, mesh: Mesh | None = None,
         extra = loss_options(state.step)
         (gen_loss, (gen_terms, aux)), gen_grads = _generator_gradients(
             generator_loss, generators, discriminators, state.phase_params, batch, gen_key, spec, length, extra)
-        (disc_loss, disc_terms), disc_grads = _discriminator_gradients(
-            discriminator_loss, generators, discriminators, state.phase_params, batch, disc_key, spec, length, aux)
+        loss_values = {"loss": gen_loss, "gen_terms": gen_terms}
+        disc_grads = None
+        if adversarial:
+            (disc_loss, disc_terms), disc_grads = _discriminator_gradients(
+                discriminator_loss, generators, discriminators, state.phase_params, batch, disc_key, spec, length,
+                aux)
+            loss_values.update(disc_loss=disc_loss, disc_terms=disc_terms)
         new_state, lr_factor = _apply_gradients(optimizer, tc, state, gen_grads, disc_grads)
-        loss_values = {"loss": gen_loss, "disc_loss": disc_loss, "gen_terms": gen_terms, "disc_terms": disc_terms}
         return new_state, _step_metrics(loss_values, gen_grads, disc_grads, length, tc, lr_factor)
 
     rep = parallel.replicated(mesh)
@@ -234,33 +240,41 @@ def _discriminator_gradients(discriminator_loss, generators, discriminators, pha
     return jax.value_and_grad(disc_objective, has_aux=True)(discriminators)
 
 
-def _apply_gradients(optimizer, tc, state: TrainState, gen_grads: dict, disc_grads: dict):
+def _apply_gradients(optimizer, tc, state: TrainState, gen_grads: dict, disc_grads: dict | None):
     """(the state after one AdamW step of the generators and one of the discriminators, the learning-rate
-    factor of `train.lr_decay_to` or None when the rate is constant)."""
+    factor of `train.lr_decay_to` or None when the rate is constant). disc_grads None (a model without
+    discriminators): the discriminators' parameters and optimiser state stay as they are."""
     generators, discriminators = split_params(state.params)
-    gen_updates, gen_opt_state = optimizer.update(gen_grads, state.gen_opt_state, generators)
-    disc_updates, disc_opt_state = optimizer.update(disc_grads, state.disc_opt_state, discriminators)
-    lr_factor = None
-    if tc.lr_decay_to != 1.0:  # AdamW's update is linear in the learning rate: scale it
-        lr_factor = schedule.learning_rate_factor(state.step, tc)
-        gen_updates = jax.tree.map(lambda u: u * lr_factor, gen_updates)
-        disc_updates = jax.tree.map(lambda u: u * lr_factor, disc_updates)
-    new_params = {**optax.apply_updates(generators, gen_updates),
-                  **optax.apply_updates(discriminators, disc_updates)}
-    new_state = state.replace(step=state.step + 1, params=new_params, gen_opt_state=gen_opt_state,
-                              disc_opt_state=disc_opt_state)
+    lr_factor = None if tc.lr_decay_to == 1.0 else schedule.learning_rate_factor(state.step, tc)
+
+    def step(grads, opt_state, params):
+        updates, opt_state = optimizer.update(grads, opt_state, params)
+        if lr_factor is not None:  # AdamW's update is linear in the learning rate: scale it
+            updates = jax.tree.map(lambda u: u * lr_factor, updates)
+        return optax.apply_updates(params, updates), opt_state
+
+    generators, gen_opt_state = step(gen_grads, state.gen_opt_state, generators)
+    disc_opt_state = state.disc_opt_state
+    if disc_grads is not None:
+        discriminators, disc_opt_state = step(disc_grads, disc_opt_state, discriminators)
+    new_state = state.replace(step=state.step + 1, params={**generators, **discriminators},
+                              gen_opt_state=gen_opt_state, disc_opt_state=disc_opt_state)
     return new_state, lr_factor
 
 
-def _step_metrics(loss_values: dict, gen_grads: dict, disc_grads: dict, length, tc, lr_factor) -> dict:
+def _step_metrics(loss_values: dict, gen_grads: dict, disc_grads: dict | None, length, tc, lr_factor) -> dict:
     """The update's metrics: "loss", "disc_loss", every term of both losses (a discriminator term named like a
-    generator one gets "disc_"), the gradient norms, "length" and, with a decaying rate, "lr"."""
-    metrics = {"loss": loss_values["loss"], "disc_loss": loss_values["disc_loss"]}
+    generator one gets "disc_"), the gradient norms, "length" and, with a decaying rate, "lr". Without
+    discriminators (disc_grads None) there is no "disc_loss", discriminator term or "disc_grad_norm"."""
+    metrics = {"loss": loss_values["loss"]}
+    if disc_grads is not None:
+        metrics["disc_loss"] = loss_values["disc_loss"]
     metrics.update({name: value for name, value in loss_values["gen_terms"].items() if name not in metrics})
     metrics.update({(name if name not in metrics else f"disc_{name}"): value
-                    for name, value in loss_values["disc_terms"].items()})
+                    for name, value in loss_values.get("disc_terms", {}).items()})
     metrics["gen_grad_norm"] = optax.tree.norm(gen_grads)
-    metrics["disc_grad_norm"] = optax.tree.norm(disc_grads)
+    if disc_grads is not None:
+        metrics["disc_grad_norm"] = optax.tree.norm(disc_grads)
     metrics = {name: jnp.asarray(value, jnp.float32) for name, value in metrics.items()}
     metrics["length"] = jnp.asarray(length, jnp.int32)
     if lr_factor is not None:

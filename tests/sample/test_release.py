@@ -75,7 +75,8 @@ def test_release_folder_holds_only_what_sampling_needs():
     check = description["notes"]["precision_check"]  # what bin/export --check-data measured before keeping it
     assert max(check["relative_change"].values()) <= check["tolerance"]
     # every config field is written out, so a later change of a default cannot change the model; a field
-    # added since the export can only be an extension, which loads at its paper value (off)
+    # added since the export can only be an extension, which loads at its paper value (off), or a switch of
+    # a part of the paper's model (Appendix D), which loads with the part on
     from stitchjax import config as config_lib
 
     saved = description["config"]
@@ -90,8 +91,10 @@ def test_release_folder_holds_only_what_sampling_needs():
                 assert value == saved[section][name], (section, name)
             else:
                 added.add(f"{section}.{name}")
-    assert added <= set(config_lib.EXTENSIONS)
+    assert added <= set(config_lib.EXTENSIONS) | set(config_lib.ABLATION_SWITCHES)
     assert not set(config_lib.extensions_on(config_lib.from_dict(saved))) & added
+    assert all(loaded[name.split(".")[0]][name.split(".")[1]] is True
+               for name in added & set(config_lib.ABLATION_SWITCHES))
 
 
 def test_loading_restores_only_the_sampling_parameters(tiny_run, monkeypatch):
