@@ -1,10 +1,10 @@
 """The README picture (docs/images/samples.png) and the viewer's screenshot (docs/images/viewer.png): 8 samples of
 the release model between frames 200 and 246 of the bundled take (45 generated frames), at its default sampling.
 
-Runs bin/inbetween once (--samples 8 --html), then draws its sample BVHs with stitchjax.eval.plots.samples_overview
-(root paths from above beside each sample's middle frame) and screenshots its HTML page in headless chromium (where
-one is installed; skipped otherwise), opened at the middle frame. Writes drawn.json: what was drawn and how far
-apart the samples are.
+Runs bin/inbetween (--samples 8 --html), draws its sample BVHs with stitchjax.eval.plots.samples_overview (root
+paths from above above each sample's middle frame from the side) and screenshots its HTML page in headless chromium
+(where one is installed; skipped otherwise), opened at the middle frame. Runs it again with --paper-sampling for
+the spread at the paper's sampling. Writes drawn.json: what was drawn and how far apart the samples are.
 
     python experiments/readme_picture/draw.py [--checkpoint DIR] [--images docs/images]
 """
@@ -70,6 +70,19 @@ def _shown(path: pathlib.Path) -> str:
     return str(path.relative_to(REPO)) if path.is_relative_to(REPO) else str(path)
 
 
+def samples(checkpoint, extra: list, out: str) -> tuple:
+    """(the bin/inbetween command, the samples' global positions (S, T, J, 3) cm) of one run into ``out``."""
+    command = ["bin/inbetween", "--bvh", TAKE, "--start-frame", str(START), "--end-frame", str(END),
+               "--samples", str(SAMPLES), "--seed", str(SEED), *extra, "--out", "OUT"]
+    if checkpoint:
+        command[1:1] = ["--checkpoint", checkpoint]
+    subprocess.run([sys.executable] + [out if c == "OUT" else c for c in command], check=True, capture_output=True,
+                   cwd=REPO)
+    stem = pathlib.Path(TAKE).name.split(".")[0]
+    paths = sorted(pathlib.Path(out).glob(f"{stem}_sample*.bvh"), key=lambda p: int(p.stem.rsplit("sample", 1)[1]))
+    return " ".join(command), np.stack([bvh.load(p).global_positions() for p in paths])
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--checkpoint", help="model folder (default: the release model)")
@@ -77,18 +90,11 @@ def main():
     args = parser.parse_args()
     images = pathlib.Path(args.images)
     started = time.perf_counter()
+    stem = pathlib.Path(TAKE).name.split(".")[0]
+    middle = (START + END) // 2
+    take = bvh.load(REPO / TAKE)
     with tempfile.TemporaryDirectory() as tmp:
-        command = ["bin/inbetween", "--bvh", TAKE, "--start-frame", str(START), "--end-frame", str(END),
-                   "--samples", str(SAMPLES), "--seed", str(SEED), "--html", "--out", "OUT"]
-        if args.checkpoint:
-            command[1:1] = ["--checkpoint", args.checkpoint]
-        subprocess.run([sys.executable] + [tmp if c == "OUT" else c for c in command], check=True,
-                       capture_output=True, cwd=REPO)
-        stem = pathlib.Path(TAKE).name.split(".")[0]
-        paths = sorted(pathlib.Path(tmp).glob(f"{stem}_sample*.bvh"), key=lambda p: int(p.stem.rsplit("sample", 1)[1]))
-        take = bvh.load(REPO / TAKE)
-        g = np.stack([bvh.load(p).global_positions() for p in paths])  # (S, T, J, 3) cm
-        middle = (START + END) // 2
+        command, g = samples(args.checkpoint, ["--html"], tmp)
         window = slice(START - CONTEXT, END + CONTEXT + 1)
         plots.samples_overview(list(g[:, window]), take.skeleton.parents, keyframes=(CONTEXT, CONTEXT + END - START),
                                reference=take.global_positions()[window],
@@ -97,11 +103,15 @@ def main():
                                path=images / "samples.png")
         browser = screenshot(pathlib.Path(tmp) / f"{stem}.html", middle - (START - CONTEXT), images / "viewer.png")
     figures = spreads(g, middle)
+    with tempfile.TemporaryDirectory() as tmp:
+        paper_command, paper = samples(args.checkpoint, ["--paper-sampling"], tmp)
+    paper_figures = spreads(paper, middle)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                             cwd=REPO).stdout.strip()
-    drawn = {"what": __doc__.split("\n\n")[0].replace("\n", " "), "command": " ".join(command), "commit": commit,
+    drawn = {"what": __doc__.split("\n\n")[0].replace("\n", " "), "command": command, "commit": commit,
              "take": TAKE, "keyframes": [START, END], "middle_frame": middle, "samples": SAMPLES, "seed": SEED,
-             "units": "cm", "spread": figures, "samples_png": _shown(images / "samples.png"),
+             "units": "cm", "spread": figures, "paper_sampling": {"command": paper_command, "spread": paper_figures},
+             "samples_png": _shown(images / "samples.png"),
              "viewer_png": _shown(images / "viewer.png") if browser else None, "browser": browser,
              "wall_s": round(time.perf_counter() - started, 1)}
     (HERE / "drawn.json").write_text(json.dumps(drawn, indent=2) + "\n")
