@@ -304,8 +304,9 @@
     function dotAt(items, v, p, color, radius) {
       var c = toCamera(v, p);
       if (c[2] < camera.near) { return; }
-      items.push({ depth: c[2] - 1e-3 * camera.height, kind: "dot", a: toScreen(v, c), color: color,
-                   radius: Math.max(2.5, radius * v.focal / c[2]) });
+      // dots are markers: drawn over every bone (depth -Infinity), so a contact behind a leg still shows
+      items.push({ depth: -Infinity, kind: "dot", a: toScreen(v, c), color: color,
+                   radius: Math.max(4, radius * v.focal / c[2]) });
     }
     function skeleton(items, v, pose, color, width, contacts) {
       data.parents.forEach(function (parent, j) {
@@ -313,7 +314,7 @@
       });
       if (contacts) {
         data.feet.forEach(function (joint, k) {
-          if (contacts & (1 << k)) { dotAt(items, v, pose[joint], data.contact_color, 0.02 * camera.height); }
+          if (contacts & (1 << k)) { dotAt(items, v, pose[joint], data.contact_color, 0.03 * camera.height); }
         });
       }
     }
@@ -363,7 +364,7 @@
         var contacts = track.contacts ? track.contacts[state.frame] : 0;
         skeleton(items, v, track.frames[state.frame], track.color, bone, contacts);
       });
-      items.sort(function (p, q) { return q.depth - p.depth; });
+      items.sort(function (p, q) { return p.depth === q.depth ? 0 : (p.depth < q.depth ? 1 : -1); });
       context.lineCap = "round";
       items.forEach(function (item) {
         if (item.kind === "line") {
