@@ -1,6 +1,6 @@
 """A self-contained HTML page that plays motions as 3D skeletons: orbit, zoom, play, scrub, one toggle per motion.
 
-    page = viewer_html([sample0, sample1], parents, fps=30, keyframes=(10, 40), feet=model.feet)
+    page = viewer_html([sample0, sample1], parents, fps=30, keyframes=(10, 40), contacts=ContactMarks(model.feet))
     pathlib.Path("out.html").write_text(page)          # opens in any browser, no network
     show([sample0, sample1], parents, fps=30, keyframes=(10, 40))   # a notebook cell shows it inline
 
@@ -9,11 +9,12 @@ take there), all with the same T and skeleton ``parents``. The page holds the mo
 to 0.1 cm), the renderer (``viewer.js`` beside this module: a canvas with its own perspective camera, no
 library) and its style; it loads nothing.
 
-Foot contacts are drawn as dots on the contact joints ``feet``: the ones given (e.g. the model's predicted
-contacts), else measured from the motion as the training labels are (:func:`foot_contacts_at_rate`).
+Foot contacts are drawn as dots on the contact joints (:class:`ContactMarks`): the ones given (e.g. the model's
+predicted contacts), else measured from the motion as the training labels are (:func:`foot_contacts_at_rate`).
 """
 from __future__ import annotations
 
+import dataclasses
 import html
 import importlib.resources
 import json
@@ -22,19 +23,18 @@ import pathlib
 from typing import Sequence
 
 import numpy as np
-
 from matplotlib.colors import to_hex
 
 from stitchjax.data.windows import CONTACT_THRESHOLD, foot_contacts
 from stitchjax.eval.drawing import sample_color
 
-__all__ = ["viewer_html", "viewer_data", "show", "Viewer", "foot_contacts_at_rate", "PAGE_HEIGHT_PX"]
+__all__ = ["viewer_html", "viewer_data", "show", "Viewer", "ContactMarks", "foot_contacts_at_rate", "PAGE_HEIGHT_PX"]
 
 KEYFRAME_COLOR = "#111111"
 REFERENCE_COLOR = "#9a9a9a"
 CONTACT_COLOR = "#ff2d55"
 POSITION_STEPS_PER_CM = 10  # positions are stored as whole tenths of a centimetre
-PAGE_HEIGHT_PX = 560  # the inline frame's height in a notebook
+PAGE_HEIGHT_PX = 640  # the inline frame's height in a notebook
 
 _STYLE = """
 body { margin: 0; font: 13px system-ui, sans-serif; color: #222; background: #fff; }
@@ -99,10 +99,40 @@ def _contact_bits(contacts) -> list:
     return (c * (1 << np.arange(c.shape[1]))).sum(axis=1).astype(int).tolist()
 
 
+@dataclasses.dataclass(frozen=True)
+class ContactMarks:
+    """Which foot contacts the page marks: the contact joints ``feet`` (joint indices), and per motion either
+    ``given`` (one (T, len(feet)) array per motion, > 0.5 is a contact, e.g. the model's predicted contacts;
+    ``source`` names them in the legend) or, when None, contacts measured from the motions as the training
+    labels are (:func:`foot_contacts_at_rate` at ``reference_fps``, the training data's frame rate)."""
+
+    feet: tuple
+    given: tuple | None = None
+    source: str = ""
+    reference_fps: float = 30.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "feet", tuple(int(f) for f in self.feet))
+        if self.given is not None:
+            object.__setattr__(self, "given", tuple(np.asarray(c) for c in self.given))
+        if not self.source:
+            object.__setattr__(self, "source", "given" if self.given is not None else "foot speed")
+
+    def of(self, index: int, motion, fps: float, name: str):
+        """(T, C) bool contacts of ``motion`` (T, J, 3) at ``fps``: the given ones of motion ``index``, or measured
+        (none given, or ``index`` None); None without feet. ValueError naming a bad shape."""
+        marks = self.given[index] if self.given is not None and index is not None else None
+        if marks is None:
+            return foot_contacts_at_rate(motion, self.feet, fps, self.reference_fps) if self.feet else None
+        if np.shape(marks) != (motion.shape[0], len(self.feet)):
+            raise ValueError(f"contacts of {name!r} must be (T, C) = ({motion.shape[0]}, {len(self.feet)}), got "
+                             f"{np.shape(marks)}")
+        return marks > 0.5
+
+
 def viewer_data(motions, parents, *, fps: float = 30.0, keyframes: Sequence[int] | None = None,
-                transition: tuple | None = None, titles: Sequence[str] | None = None, contacts=None,
-                feet: Sequence[int] = (), reference=None, reference_title: str = "input",
-                reference_fps: float = 30.0, title: str = "") -> dict:
+                titles: Sequence[str] | None = None, contacts: ContactMarks | None = None, reference=None,
+                title: str = "") -> dict:
     """The page's motion data (the JSON :func:`viewer_html` embeds; see it for the arguments).
 
     Fields: ``parents``, ``feet``, ``fps``, ``num_frames``, ``scale`` (steps per cm of the integer
@@ -112,36 +142,30 @@ def viewer_data(motions, parents, *, fps: float = 30.0, keyframes: Sequence[int]
     motions = _checked(motions, parents)
     num_frames = motions[0].shape[0]
     keyframes = (0, num_frames - 1) if keyframes is None else tuple(int(k) % num_frames for k in keyframes)
-    transition = (min(keyframes), max(keyframes)) if transition is None else tuple(int(t) for t in transition)
-    feet = tuple(int(f) for f in feet)
-    if contacts is not None and len(contacts) != len(motions):
-        raise ValueError(f"contacts: give one (T, C) array per motion ({len(motions)}), got {len(contacts)}")
+    contacts = ContactMarks(()) if contacts is None else contacts
+    if contacts.given is not None and len(contacts.given) != len(motions):
+        raise ValueError(f"contacts: give one (T, C) array per motion ({len(motions)}), got {len(contacts.given)}")
+    names = [str(titles[i]) if titles is not None and i < len(titles) else f"sample {i}" for i in range(len(motions))]
+    shown = [(i, m, names[i], to_hex(sample_color(i)), True) for i, m in enumerate(motions)]
+    if reference is not None:  # the take's own frames: contacts always measured, hidden until ticked
+        reference = _checked([reference], parents)[0]
+        if reference.shape[0] != num_frames:
+            raise ValueError(f"the reference has {reference.shape[0]} frames, the motions {num_frames}")
+        shown.insert(0, (None, reference, "input", REFERENCE_COLOR, False))
     tracks = []
-    shown = [(m, None if contacts is None else contacts[i], str(titles[i]) if titles is not None and i < len(titles)
-              else f"sample {i}", to_hex(sample_color(i)), True) for i, m in enumerate(motions)]
-    if reference is not None:
-        shown.insert(0, (_checked([reference], parents)[0], None, reference_title, REFERENCE_COLOR, False))
-        if shown[0][0].shape[0] != num_frames:
-            raise ValueError(f"the reference has {shown[0][0].shape[0]} frames, the motions {num_frames}")
-    for m, given, name, color, visible in shown:
-        if given is None and feet:
-            given = foot_contacts_at_rate(m, feet, fps, reference_fps)
-        if given is not None and np.shape(given) != (num_frames, len(feet)):
-            raise ValueError(f"contacts of {name!r} must be (T, C) = ({num_frames}, {len(feet)}), got "
-                             f"{np.shape(given)}")
+    for index, m, name, color, visible in shown:
+        marks = contacts.of(index, m, fps, name)
         tracks.append({"name": name, "color": color, "positions": _packed(m), "visible": visible,
-                       "contacts": None if given is None else _contact_bits(np.asarray(given) > 0.5)})
-    everything = np.stack(motions)  # (S, T, J, 3)
-    lowest = everything[..., 1].min(axis=-1)  # (S, T): the lowest joint of each pose
+                       "contacts": None if marks is None else _contact_bits(marks)})
+    lowest = np.stack(motions)[..., 1].min(axis=-1)  # (S, T): the lowest joint of each pose
     return {
         "title": str(title), "fps": float(fps), "num_frames": int(num_frames), "parents": [int(p) for p in parents],
-        "feet": list(feet), "scale": POSITION_STEPS_PER_CM, "units": "cm",
+        "feet": list(contacts.feet), "scale": POSITION_STEPS_PER_CM, "units": "cm",
         # most frames have a foot down: the 5th percentile of the lowest joint, robust to a sunken foot or a jump
         "ground": round(float(np.percentile(lowest, 5)), 1),
-        "keyframes": list(keyframes), "transition": list(transition), "tracks": tracks,
+        "keyframes": list(keyframes), "transition": [min(keyframes), max(keyframes)], "tracks": tracks,
         "keyposes": [{"frame": k, "positions": _packed(motions[0][k])} for k in dict.fromkeys(keyframes)],
-        "keyframe_color": KEYFRAME_COLOR, "contact_color": CONTACT_COLOR,
-        "contact_source": "given" if contacts is not None else "foot speed",
+        "keyframe_color": KEYFRAME_COLOR, "contact_color": CONTACT_COLOR, "contact_source": contacts.source,
     }
 
 
@@ -152,25 +176,19 @@ def _script() -> str:
 
 
 def viewer_html(motions, parents, *, fps: float = 30.0, keyframes: Sequence[int] | None = None,
-                transition: tuple | None = None, titles: Sequence[str] | None = None, contacts=None,
-                feet: Sequence[int] = (), reference=None, reference_title: str = "input",
-                reference_fps: float = 30.0, contact_source: str | None = None, title: str = "") -> str:
+                titles: Sequence[str] | None = None, contacts: ContactMarks | None = None, reference=None,
+                title: str = "") -> str:
     """One self-contained HTML page (str) that plays ``motions`` as 3D skeletons on a ground grid.
 
     motions: list of (T, J, 3) global positions (cm, +Y up), or one (T, J, 3); parents: (J,) parent indices.
     fps: the motions' frame rate (playback speed). keyframes: frame indices drawn as black skeletons all the
-    time (default: first and last); transition: (first, last) frames called "transition" (default: between
-    the keyframes). titles: one name per motion (default "sample k"). feet: the contact joints; contacts:
-    one (T, len(feet)) array per motion (e.g. the model's predicted contacts; > 0.5 is a contact), else
-    measured from the motions (:func:`foot_contacts_at_rate` at ``reference_fps``, the training data's rate),
-    contact_source: what the legend calls them. reference: an optional (T, J, 3) motion (e.g. the take's own
-    frames), hidden until ticked. Positions are rounded to 0.1 cm.
+    time (default: first and last); the frames between the first and last are called "transition".
+    titles: one name per motion (default "sample k"). contacts: the foot contacts to mark (:class:`ContactMarks`;
+    None: none). reference: an optional (T, J, 3) motion (e.g. the take's own frames), called "input", hidden
+    until ticked, its contacts measured. Positions are rounded to 0.1 cm.
     """
-    data = viewer_data(motions, parents, fps=fps, keyframes=keyframes, transition=transition, titles=titles,
-                       contacts=contacts, feet=feet, reference=reference, reference_title=reference_title,
-                       reference_fps=reference_fps, title=title)
-    if contact_source:
-        data["contact_source"] = str(contact_source)
+    data = viewer_data(motions, parents, fps=fps, keyframes=keyframes, titles=titles, contacts=contacts,
+                       reference=reference, title=title)
     # "<" escaped: the JSON cannot close its <script> element
     payload = json.dumps(data, separators=(",", ":")).replace("<", "\\u003c")
     heading = html.escape(title or "stitchjax viewer")

@@ -43,7 +43,7 @@ def _data(page: str) -> dict:
 
 def test_page_is_self_contained_and_holds_the_motions_to_a_tenth_of_a_cm():
     motions = [_motion(seed=s) for s in range(3)]
-    page = viewer.viewer_html(motions, LAFAN1_PARENTS, fps=30, keyframes=(5, 30), feet=FEET,
+    page = viewer.viewer_html(motions, LAFAN1_PARENTS, fps=30, keyframes=(5, 30), contacts=viewer.ContactMarks(FEET),
                               reference=motions[0], title="walk </script><b>x</b>")
     assert page.startswith("<!DOCTYPE html>") and page.count("<script") == 2
     assert not re.search(r"(src|href)\s*=|https?://|import\s*\(|fetch\(", page)  # loads nothing
@@ -82,29 +82,32 @@ def test_contacts_given_win_and_are_stored_as_bits_per_frame():
     motion = np.zeros((30, J, 3))
     motion[:, :, 1] = np.linspace(0, 170, J)
     motion[15:, FEET[0], 0] = 2.0 * np.arange(1, 16)  # the left ankle slides from frame 14 on
-    measured = viewer.viewer_data([motion], LAFAN1_PARENTS, feet=FEET)
+    measured = viewer.viewer_data([motion], LAFAN1_PARENTS, contacts=viewer.ContactMarks(FEET))
     assert measured["tracks"][0]["contacts"] == [15] * 14 + [14] * 16
     assert measured["contact_source"] == "foot speed"
     given = np.zeros((30, 4))
     given[:, 2] = 1.0
-    data = viewer.viewer_data([motion], LAFAN1_PARENTS, feet=FEET, contacts=[given])
-    assert data["tracks"][0]["contacts"] == [4] * 30 and data["contact_source"] == "given"
+    data = viewer.viewer_data([motion], LAFAN1_PARENTS, contacts=viewer.ContactMarks(FEET, given=[given],
+                                                                                     source="predicted"))
+    assert data["tracks"][0]["contacts"] == [4] * 30 and data["contact_source"] == "predicted"
+    assert viewer.viewer_data([motion], LAFAN1_PARENTS)["tracks"][0]["contacts"] is None  # no feet, no marks
 
 
 def test_bad_motions_are_refused_naming_the_shape():
     with pytest.raises(ValueError, match=r"\(T, J, 3\) = \(40, 22, 3\).*\(40, 23, 3\)"):
         viewer.viewer_html([_motion(), np.zeros((40, 23, 3))], LAFAN1_PARENTS)
     with pytest.raises(ValueError, match="contacts of 'sample 0' must be"):
-        viewer.viewer_html([_motion()], LAFAN1_PARENTS, feet=FEET, contacts=[np.zeros((40, 2))])
+        viewer.viewer_html([_motion()], LAFAN1_PARENTS, contacts=viewer.ContactMarks(FEET, given=[np.zeros((40, 2))]))
 
 
 def test_notebook_helper_shows_the_same_page_inline(tmp_path):
     motions = [_motion(seed=s) for s in range(2)]
-    shown = viewer.show(motions, LAFAN1_PARENTS, fps=30, feet=FEET)
+    shown = viewer.show(motions, LAFAN1_PARENTS, fps=30, contacts=viewer.ContactMarks(FEET))
     inline = shown._repr_html_()
     assert inline.startswith("<iframe") and 'data-stitchjax-viewer="1"' in inline
     srcdoc = re.search(r'srcdoc="([^"]*)"', inline).group(1)
-    assert html.unescape(srcdoc) == shown.html == viewer.viewer_html(motions, LAFAN1_PARENTS, fps=30, feet=FEET)
+    assert html.unescape(srcdoc) == shown.html == viewer.viewer_html(motions, LAFAN1_PARENTS, fps=30,
+                                                                     contacts=viewer.ContactMarks(FEET))
     path = shown.save(tmp_path / "page.html")
     assert path.read_text() == shown.html
 
@@ -142,7 +145,8 @@ def test_page_draws_in_headless_chromium_without_console_errors(tmp_path):
     browser = _chromium()
     motions = [_motion(seed=s, speed=2.0 * s) for s in range(3)]
     page = tmp_path / "page.html"
-    page.write_text(viewer.viewer_html(motions, LAFAN1_PARENTS, fps=30, keyframes=(0, 39), feet=FEET))
+    page.write_text(viewer.viewer_html(motions, LAFAN1_PARENTS, fps=30, keyframes=(0, 39),
+                                       contacts=viewer.ContactMarks(FEET)))
     stderr, dom = _open(browser, page, tmp_path, "--dump-dom")
     assert _console(stderr) == []
     element = re.search(r'<div id="stitchjax-viewer"[^>]*>', dom).group(0)
