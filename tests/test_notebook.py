@@ -35,6 +35,9 @@ def test_latent_space_notebook_runs(tiny_run, tmp_path):
     assert not [o for o in outputs if o.output_type == "error"]
     images = [o for o in outputs if "image/png" in o.get("data", {})]
     assert len(images) >= 4  # PCA, overlap gap, interpolation filmstrip, APD curve
+    pages = ["".join(o["data"]["text/html"]) for o in outputs if "text/html" in o.get("data", {})]
+    viewers = [p for p in pages if 'data-stitchjax-viewer="1"' in p]  # the 3D viewer of the interpolation, inline
+    assert len(viewers) == 1 and "predicted by the model" in viewers[0]
     text = "".join(o.get("text", "") for o in outputs if o.output_type == "stream")
     assert "latent codes of size 4" in text and "L =  8: APD" in text
     # APD is a distance: finite and non-negative for the samples of an untrained-but-random model.

@@ -10,7 +10,21 @@ import numpy as np
 from stitchjax.eval.drawing import (DEFAULT_CMAP, draw_skeleton, frame_axes, frame_colors, horizontal_axis, new_figure,
                                     project)
 
-__all__ = ["animate"]
+__all__ = ["animate", "gif_frames", "GIF_MAX_FPS"]
+
+# A GIF stores frame delays in hundredths of a second and browsers show a delay under 0.02 s as 0.1 s: a
+# motion above this rate is shown every k-th frame (its keyframes kept) so that it plays at its own speed.
+GIF_MAX_FPS = 30.0
+
+
+def gif_frames(num_frames: int, fps: float, keyframes: Sequence[int] = ()) -> tuple[list, float]:
+    """(frame indices a GIF shows, its frame rate): every frame at ``fps`` <= :data:`GIF_MAX_FPS`, else every
+    k-th frame (k = ceil(fps / GIF_MAX_FPS)) at fps / k, with the first, last and ``keyframes`` frames too."""
+    if not fps > 0:
+        raise ValueError(f"fps must be positive, got {fps}")
+    step = max(1, int(np.ceil(float(fps) / GIF_MAX_FPS - 1e-9)))
+    shown = set(range(0, num_frames, step)) | {num_frames - 1} | {int(k) for k in keyframes}
+    return sorted(shown), float(fps) / step
 
 
 def _panel(ax, motion, parents, axis, first_color, ymin: float, ymax: float, half: float):
@@ -45,7 +59,8 @@ def animate(motions, parents, path, *, fps: float = 30.0, keyframes: Sequence[in
     transition it takes the frame's colour map colour, elsewhere grey. Each panel is square and shows the
     body at about 70 % of its height (``height`` inches at ``dpi``: 288 px, a figure ~210 px tall by
     default); a character that travels further than half its height is followed by the camera, and marks on
-    the ground every quarter of the body's height scroll past, so root travel and foot sliding show.
+    the ground every quarter of the body's height scroll past, so root travel and foot sliding show. A motion
+    faster than :data:`GIF_MAX_FPS` shows every k-th frame (:func:`gif_frames`), so it keeps its speed.
     Returns the path written.
     """
     from matplotlib.animation import FuncAnimation, PillowWriter
@@ -83,8 +98,9 @@ def animate(motions, parents, path, *, fps: float = 30.0, keyframes: Sequence[in
         counter.set_text(f"frame {t}")
         return changed
 
-    anim = FuncAnimation(fig, update, frames=num_frames, blit=False)
+    shown, rate = gif_frames(num_frames, fps, keyframes)
+    anim = FuncAnimation(fig, update, frames=shown, blit=False)
     path = pathlib.Path(os.fspath(path))
     path.parent.mkdir(parents=True, exist_ok=True)
-    anim.save(str(path), writer=PillowWriter(fps=max(1, int(round(fps)))), dpi=dpi)
+    anim.save(str(path), writer=PillowWriter(fps=rate), dpi=dpi)
     return path

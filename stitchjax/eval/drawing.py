@@ -24,12 +24,14 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-__all__ = ["KEYFRAME_COLOR", "CONTEXT_COLOR", "DEFAULT_CMAP", "horizontal_axis", "project", "frame_colors",
-           "check_pose", "draw_skeleton", "new_figure", "finish_figure", "frame_axes"]
+__all__ = ["KEYFRAME_COLOR", "CONTEXT_COLOR", "DEFAULT_CMAP", "SAMPLE_CMAP", "horizontal_axis", "project",
+           "frame_colors", "sample_color", "check_pose", "draw_skeleton", "draw_skeleton_from_above", "new_figure",
+           "finish_figure", "frame_axes"]
 
 KEYFRAME_COLOR = "black"
 CONTEXT_COLOR = "0.75"
 DEFAULT_CMAP = "viridis"
+SAMPLE_CMAP = "tab10"  # one colour per sample where samples are told apart (and in stitchjax.eval.viewer)
 
 
 # --------------------------------------------------------------------------------------- geometry
@@ -95,6 +97,11 @@ def frame_colors(num_frames: int, keyframes: Sequence[int] = (), transition: tup
     return colors
 
 
+def sample_color(index: int):
+    """The colour of sample ``index`` where samples are told apart by colour (matplotlib's tab10, cycling)."""
+    return matplotlib.colormaps[SAMPLE_CMAP](int(index) % 10)
+
+
 def check_pose(positions, parents):
     """(J, 3) float64 global positions of one pose; ValueError naming a bad shape."""
     p = np.asarray(positions, dtype=np.float64)
@@ -132,6 +139,20 @@ def draw_skeleton(ax, positions, parents, *, axis=(1.0, 0.0), shift: float = 0.0
                           linewidth=linewidth * (0.75 if far else 1.0), alpha=alpha * (0.45 if far else 1.0),
                           solid_capstyle="round", zorder=zorder - (0.5 if far else 0.0))
         lines.append(line)
+    return lines
+
+
+def draw_skeleton_from_above(ax, positions, parents, *, color="black", linewidth: float = 1.2,
+                             alpha: float = 1.0, zorder: int = 2) -> list:
+    """Draw one pose (J, 3) (Y-up) seen from above on ``ax``: each bone's x (right) against z (the axes'
+    vertical; invert it for z pointing down the page). Returns the bones' Line2D (J - 1)."""
+    p = check_pose(positions, parents)
+    lines = []
+    for j, parent in enumerate(parents):
+        if parent >= 0:
+            (line,) = ax.plot(p[[parent, j], 0], p[[parent, j], 2], color=color, linewidth=linewidth, alpha=alpha,
+                              solid_capstyle="round", zorder=zorder)
+            lines.append(line)
     return lines
 
 

@@ -17,11 +17,12 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
-from stitchjax.eval.drawing import (DEFAULT_CMAP, KEYFRAME_COLOR, check_pose, draw_skeleton, finish_figure,
-                                    frame_axes, frame_colors, horizontal_axis, new_figure, project)
+from stitchjax.eval.drawing import (CONTEXT_COLOR, DEFAULT_CMAP, KEYFRAME_COLOR, check_pose, draw_skeleton,
+                                    draw_skeleton_from_above, finish_figure, frame_axes, frame_colors,
+                                    horizontal_axis, new_figure, project, sample_color)
 
-__all__ = ["stick_figure", "filmstrip", "root_trajectories", "error_over_time", "per_frame_error", "loss_curves",
-           "time_to_quality", "foot_lock_before_after"]
+__all__ = ["stick_figure", "filmstrip", "body_width", "samples_overview", "root_trajectories", "error_over_time",
+           "per_frame_error", "loss_curves", "time_to_quality", "foot_lock_before_after"]
 
 
 # ----------------------------------------------------------------------------------------- poses
@@ -62,13 +63,25 @@ def _checked_motions(motions, parents, every: int) -> list:
     return motions
 
 
-def _placed_poses(poses, axis, spacing: float, travel: bool) -> np.ndarray:
+def body_width(poses, axis) -> float:
+    """How wide a pose looks along the screen's horizontal ``axis``: the median over poses (..., J, 3) of
+    each one's horizontal extent (data units)."""
+    screen = project(np.asarray(poses, np.float64), axis)[..., 0]
+    extent = screen.max(axis=-1) - screen.min(axis=-1)
+    return float(np.median(extent))
+
+
+def _placed_poses(poses, axis, spacing: float, travel: bool, min_step: float = 0.0) -> np.ndarray:
     """Screen coordinates (D, J, 2) of the drawn poses (D, J, 3), shifted into place: each centred on its
-    root `spacing` apart, or (travel) keeping their displacement from the first one."""
+    root `spacing` apart, or (travel) keeping their displacement from the first one, except that each pose
+    lies at least ``min_step`` further along the strip than the one before (a root that moves less, or
+    back, would draw the poses on top of each other)."""
     screen = project(poses, axis)
     root = screen[:, :1, 0]
     if travel:
-        screen[..., 0] -= root[:1]
+        steps = np.maximum(np.diff(root[:, 0]), float(min_step))
+        place = np.concatenate([[0.0], np.cumsum(steps)])
+        screen[..., 0] += place[:, None] - root
     else:
         screen[..., 0] += np.arange(len(poses))[:, None] * spacing - root
     return screen
@@ -118,8 +131,10 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
       frames outside it are light grey.
     view: see :mod:`stitchjax.eval.drawing`; one axis is chosen for all rows, so rows are comparable.
     spacing: horizontal distance between consecutive figures (file units; default 0.6 x body height);
-      each figure is centred on its own root unless ``travel=True`` (then it keeps its real
-      horizontal displacement from the first drawn frame, which shows speed but may overlap).
+      each figure is centred on its own root unless ``travel=True``: then each keeps its real horizontal
+      displacement from the one drawn before, which shows speed, but at least a body width
+      (1.2 x :func:`body_width`, at least a quarter of the body's height), so motion in place is spaced out
+      instead of stacked.
     Figure size: ``figsize``, or ``row_height`` inches per row and the width that keeps the poses'
     aspect ratio (plus room for the titles).
     """
@@ -135,7 +150,9 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
     ymax = max(float(m[..., 1].max()) for m in motions)
     height = max(ymax - ymin, 1e-3)
     spacing = 0.6 * height if spacing is None else float(spacing)
-    placed = [_placed_poses(m[drawn], axis, spacing, travel) for m in motions]
+    # travel: a root that moves less than a body width between drawn frames is spaced by one (in-place motion)
+    min_step = max(1.2 * body_width(np.stack([m[drawn] for m in motions]), axis), 0.25 * height) if travel else 0.0
+    placed = [_placed_poses(m[drawn], axis, spacing, travel, min_step) for m in motions]
     xmin = min(float(p[..., 0].min()) for p in placed)
     xmax = max(float(p[..., 0].max()) for p in placed)
     pad = 0.05 * height
@@ -159,6 +176,105 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
                     va="center")
     if title:
         fig.suptitle(title, fontsize=9, y=1 - 0.05 * title_h / fig_h)
+    return finish_figure(fig, path)
+
+
+# ------------------------------------------------------------------------------------ samples overview
+
+
+def _along_the_way(positions, start, direction) -> np.ndarray:
+    """Global positions (..., 3) Y-up turned and moved about the vertical so that ``start`` (x, z) is the origin
+    and ``direction`` (x, z, unit) is +x; seen from above, +z stays a quarter turn from +x as before."""
+    p = np.asarray(positions, np.float64)
+    d = p[..., [0, 2]] - start
+    along = d @ direction
+    side = d @ np.array([-direction[1], direction[0]])
+    return np.stack([along, p[..., 1], side], axis=-1)
+
+
+def _overview_from_above(ax, motions, parents, keyframes, middle, reference):
+    """The top panel of :func:`samples_overview`: root paths from above, turned so the way from the start
+    keyframe's root to the target's runs left to right; the keyframe poses, dots at the middle frame."""
+    a, b = keyframes
+    start = motions[0][a, 0, [0, 2]]
+    chord = motions[0][b, 0, [0, 2]] - start
+    direction = chord / np.linalg.norm(chord) if np.linalg.norm(chord) > 1e-6 else np.array([1.0, 0.0])
+    turned = [_along_the_way(m, start, direction) for m in motions]
+    if reference is not None:
+        r = _along_the_way(reference, start, direction)
+        ax.plot(r[:, 0, 0], r[:, 0, 2], "--", color=KEYFRAME_COLOR, linewidth=0.9, zorder=4, label="input")
+    for i, m in enumerate(turned):
+        color = sample_color(i)
+        ax.plot(m[:a + 1, 0, 0], m[:a + 1, 0, 2], color=CONTEXT_COLOR, linewidth=1.0, zorder=1)
+        ax.plot(m[b:, 0, 0], m[b:, 0, 2], color=CONTEXT_COLOR, linewidth=1.0, zorder=1)
+        ax.plot(m[a:b + 1, 0, 0], m[a:b + 1, 0, 2], color=color, linewidth=1.5, zorder=3)
+        ax.plot(m[middle, 0, 0], m[middle, 0, 2], "o", color=color, markersize=6, markeredgecolor="white",
+                markeredgewidth=0.7, zorder=5)
+    for k in (a, b):
+        draw_skeleton_from_above(ax, turned[0][k], parents, color=KEYFRAME_COLOR, linewidth=1.2, zorder=6)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.invert_yaxis()
+    ax.tick_params(labelsize=7)
+    ax.set_xlabel("along the way from the start keyframe's root to the target's (cm)", fontsize=8)
+    ax.set_ylabel("to the side (cm)", fontsize=8)
+    ax.grid(True, linewidth=0.4, alpha=0.5)
+    ax.set_title("root paths from above, keyframes in black (dots: the middle frame)", fontsize=9)
+    if reference is not None:
+        ax.legend(fontsize=7, loc="upper right")
+
+
+def _overview_middle_poses(ax, motions, parents, middle, reference, axis):
+    """The bottom panel of :func:`samples_overview`: each sample's middle frame seen from the side, in a row."""
+    poses = [m[middle] for m in motions]
+    names = [f"sample {i}" for i in range(len(motions))]
+    colors = [sample_color(i) for i in range(len(motions))]
+    if reference is not None:
+        poses.insert(0, reference[middle])
+        names.insert(0, "input")
+        colors.insert(0, CONTEXT_COLOR)
+    stack = np.stack(poses)
+    ymin, ymax = float(stack[..., 1].min()), float(stack[..., 1].max())
+    height = max(ymax - ymin, 1e-3)
+    step = max(1.3 * body_width(stack, axis), 0.45 * height)
+    for k, (pose, name, color) in enumerate(zip(poses, names, colors)):
+        root = project(pose[:1], axis)[0, 0]
+        draw_skeleton(ax, pose, parents, axis=axis, shift=k * step - root, color=color, linewidth=1.8)
+        ax.text(k * step, ymin - 0.06 * height, name, ha="center", va="top", fontsize=8, color="0.25")
+    ax.axhline(ymin, color="0.8", linewidth=0.8, zorder=1)
+    frame_axes(ax, -0.6 * step, (len(poses) - 0.4) * step, ymin - 0.15 * height, ymax, margin=0.02)
+    ax.set_title("the middle frame of each sample, from the side", fontsize=9)
+
+
+def samples_overview(motions, parents, *, keyframes: Sequence[int], middle: int | None = None, reference=None,
+                     view="auto", figsize=(10.0, 6.0), dpi: int = 100, title: str | None = None,
+                     path=None) -> Figure:
+    """Samples told apart at a glance: their root paths seen from above (top; turned so the way from the
+    start keyframe's root to the target's runs left to right, equal scales; the keyframe poses in black, each
+    transition in its sample's colour, context grey, a dot at the middle frame) above each sample's middle
+    frame seen from the side (bottom, same colours, in a row).
+
+    motions: list of (T, J, 3) global positions (Y-up), the same keyframes (a, b) = ``keyframes`` in each;
+    middle: the frame shown at the bottom (default: halfway between the keyframes); reference: an optional
+    (T, J, 3) motion (e.g. the take's own frames) drawn dashed at the top and grey first at the bottom;
+    view: the side view's direction (:mod:`stitchjax.eval.drawing`). Returns the Figure (PNG at ``path``).
+    """
+    motions = _checked_motions(motions, parents, 1)
+    num_frames = motions[0].shape[0]
+    a, b = sorted(int(k) % num_frames for k in keyframes)
+    middle = (a + b) // 2 if middle is None else int(middle) % num_frames
+    if reference is not None:
+        reference = _checked_motions([reference], parents, 1)[0]
+        if reference.shape[0] != num_frames:
+            raise ValueError(f"the reference has {reference.shape[0]} frames, the motions {num_frames}")
+    fig = new_figure(figsize, dpi)
+    top = 0.9 if title else 0.95
+    above = fig.add_axes((0.08, 0.53, 0.9, top - 0.53))
+    side = fig.add_axes((0.02, 0.02, 0.96, 0.37))
+    _overview_from_above(above, motions, parents, (a, b), middle, reference)
+    axis = horizontal_axis([m[a:b + 1] for m in motions], view)
+    _overview_middle_poses(side, motions, parents, middle, reference, axis)
+    if title:
+        fig.suptitle(title, fontsize=10, y=0.975)
     return finish_figure(fig, path)
 
 
