@@ -24,7 +24,7 @@ import pathlib
 
 import numpy as np
 
-from stitchjax import RELEASE_MODEL
+from stitchjax.config import RELEASE_MODEL
 from stitchjax import rotations as R
 
 __all__ = ["FEATURES", "COLUMNS", "MONOTONE", "LENGTH_MODEL_FILE", "LengthModel", "Proposal", "pair_features",
