@@ -43,8 +43,10 @@ PROTOCOL_LENGTHS = (10, 15, 30, 45, 50)
 CONTEXT_FRAMES = 10  # official benchmark: 10 context frames, the last one (frame 9) is the start keyframe
 START_FRAME = CONTEXT_FRAMES - 1
 METRIC_KEYS = ("apd", "spread", "spread_mid", "ade", "ade_best", "slde", "npss", "foot_slide", "l2p", "l2q",
-               "penetration", "penetration_max", "penetration_share", "toe_clearance")
-CONTACT_KEYS = ("penetration", "penetration_max", "penetration_share", "toe_clearance")  # ground truth has them too
+               "penetration", "penetration_max", "penetration_share", "toe_clearance", "hover_share",
+               "knee_turn_max", "joint_jump_max")
+CONTACT_KEYS = ("penetration", "penetration_max", "penetration_share", "toe_clearance", "hover_share",
+                "knee_turn_max", "joint_jump_max")  # ground truth has them too
 
 
 def _units(metres_per_unit: float) -> dict:
@@ -63,6 +65,10 @@ def _units(metres_per_unit: float) -> dict:
         "penetration_max": "cm (the deepest foot joint-frame below the window's ground)",
         "penetration_share": "fraction of foot joint-frames below the window's ground",
         "toe_clearance": "cm (mean over swings of each swing's highest toe height above the window's ground)",
+        "hover_share": f"fraction of generated leg-frames whose foot is more than {metrics.HOVER_HEIGHT_CM:g} cm up "
+                       f"where the ground truth's is planted, in runs of {metrics.HOVER_MIN_FRAMES}+ frames",
+        "knee_turn_max": "deg/frame (the largest change of a knee angle from one frame to the next, keyframes included)",
+        "joint_jump_max": "cm/frame (the longest step of any joint from one frame to the next, keyframes included)",
         "data_positions": f"{metres_per_unit:g} m per unit",
     }
 
@@ -326,7 +332,11 @@ def evaluate_protocol(
     ground, "penetration_max" the deepest, "penetration_share" the share of foot joint-frames below it, and
     "toe_clearance" the mean of each swing's highest toe height (toes: ``feet[1::2]``, the order left foot,
     left toe, right foot, right toe; swings from the start to the target keyframe, a toe moving faster than
-    ``metrics.SWING_SPEED_CM_PER_S``; None when no toe swings); the ground truth gets them too.
+    ``metrics.SWING_SPEED_CM_PER_S``; None when no toe swings). Leg motion (``metrics.hover_parts``,
+    ``knee_turn_max``, ``joint_jump_max``): "hover_share" the share of generated leg-frames whose foot is off the
+    ground where the ground truth's is planted (in runs of ``metrics.HOVER_MIN_FRAMES`` frames or more),
+    "knee_turn_max" the largest change of a knee angle per frame and "joint_jump_max" the longest step of any
+    joint per frame, both from the start keyframe to the target keyframe. The ground truth gets them too.
     With S samples per window, ADE, SLDE, NPSS, L2P and L2Q are averaged over samples, ADE best
     keeps the best sample of each window, APD averages the sample pairs of each window and foot
     slide pools all samples. A method returning one sample is deterministic (APD 0). "spread" is the

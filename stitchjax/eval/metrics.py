@@ -318,3 +318,77 @@ def swing_clearance_parts(global_positions, ground, toes, swing_speed_cm_per_fra
         count += counted
         peak = np.where(ends, -np.inf, peak)
     return total.sum(axis=-1), count.sum(axis=-1)
+
+
+# ------------------------------------------------------------------------------------------ leg motion
+# Artefacts a post-process on the legs can add (foot locking, :mod:`stitchjax.sample.footlock`): a knee that turns
+# too fast, a joint that jumps, a foot held in the air where it should stand.
+HOVER_HEIGHT_CM = 5.0  # a foot whose lowest joint is more than this above the ground is off it
+HOVER_MIN_FRAMES = 10  # off it for this many frames in a row where the ground truth's foot is planted: hovering
+
+
+def leg_joints(parents, feet) -> tuple:
+    """((hip, knee, ankle, toe), ...) per leg from the foot joints ``feet`` (ankle, toe, ankle, toe, ...): the knee
+    is the ankle's parent and the hip the knee's parent."""
+    feet = tuple(int(f) for f in feet)
+    return tuple((int(parents[parents[a]]), int(parents[a]), a, t) for a, t in zip(feet[0::2], feet[1::2]))
+
+
+def knee_angles(global_positions, legs) -> np.ndarray:
+    """(..., T, legs) each knee's inner angle in degrees (180: straight) of positions (..., T, J, 3); legs: as
+    :func:`leg_joints` gives them."""
+    x = _f64(global_positions)
+    out = []
+    for hip, knee, ankle, _ in legs:
+        thigh, shin = x[..., hip, :] - x[..., knee, :], x[..., ankle, :] - x[..., knee, :]
+        cos = np.sum(thigh * shin, axis=-1) / (np.linalg.norm(thigh, axis=-1) * np.linalg.norm(shin, axis=-1) + 1e-12)
+        out.append(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+    return np.stack(out, axis=-1)
+
+
+def knee_turn_max(global_positions, legs) -> np.ndarray:
+    """(..., B) the largest change of a knee angle from one frame to the next (degrees per frame), per window, of
+    positions (..., B, T, J, 3)."""
+    return np.abs(np.diff(knee_angles(global_positions, legs), axis=-2)).max(axis=(-2, -1), initial=0.0)
+
+
+def joint_jump_max(global_positions, metres_per_unit: float = LAFAN1_METRES_PER_UNIT) -> np.ndarray:
+    """(..., B) the longest step of any joint from one frame to the next (cm), per window, of positions
+    (..., B, T, J, 3) in data units."""
+    step = np.linalg.norm(np.diff(_f64(global_positions), axis=-3), axis=-1) * (metres_per_unit * 100.0)
+    return step.max(axis=(-2, -1), initial=0.0)
+
+
+def _in_runs(mask, frames: int) -> np.ndarray:
+    """(..., T) bool: the frames of ``mask`` (..., T) that lie in runs of at least ``frames`` along the last axis."""
+    mask = np.asarray(mask, bool)
+    ending = np.zeros(mask.shape, np.int64)  # the run's length up to and including each frame
+    starting = np.zeros(mask.shape, np.int64)  # from each frame on
+    length = mask.shape[-1]
+    for t in range(length):
+        ending[..., t] = np.where(mask[..., t], (ending[..., t - 1] if t else 0) + 1, 0)
+        s = length - 1 - t
+        starting[..., s] = np.where(mask[..., s], (starting[..., s + 1] if t else 0) + 1, 0)
+    return mask & (ending + starting - 1 >= frames)
+
+
+def hover_parts(global_positions, truth_positions, ground, legs, metres_per_unit: float = LAFAN1_METRES_PER_UNIT,
+                up_axis: int = 1, min_frames: int = HOVER_MIN_FRAMES) -> tuple[np.ndarray, np.ndarray]:
+    """Pieces of the share of leg-frames that hover, per window: (hovering leg-frames, leg-frames), each (..., B).
+
+    global_positions: (..., B, T, J, 3) generated frames; truth_positions: (B, T, J, 3) the ground truth's same
+    frames; ground: (B,) the window's ground (:func:`ground_heights`); legs: :func:`leg_joints`. A leg hovers in a
+    frame when its foot's lowest joint (ankle or toe) is more than :data:`HOVER_HEIGHT_CM` above the ground while
+    the ground truth's is planted (within :data:`FOOT_HEIGHT_THRESHOLD_CM`, where the foot-slide metric counts it
+    on the ground), in a run of at least ``min_frames`` such frames.
+    """
+    cm = metres_per_unit * 100.0
+    floor = _f64(ground)[:, None, None]
+
+    def lowest(x):  # (..., B, T, legs) cm above the ground
+        return (np.stack([_f64(x)[..., [a, t], up_axis].min(axis=-1) for _, _, a, t in legs], axis=-1) - floor) * cm
+
+    hovering = (lowest(global_positions) > HOVER_HEIGHT_CM) & (lowest(truth_positions) <= FOOT_HEIGHT_THRESHOLD_CM)
+    counted = _in_runs(np.moveaxis(hovering, -1, -2), min_frames)  # runs along the frames of each leg
+    frames = np.full(counted.shape[:-2], float(counted.shape[-2] * counted.shape[-1]))
+    return counted.sum(axis=(-2, -1)).astype(np.float64), frames

@@ -26,7 +26,7 @@ class Truth:
     mean: np.ndarray  # (J*3,) training statistics, for L2P
     std: np.ndarray
     slide_kw: dict  # feet, metres_per_unit, up_axis of metrics.foot_slide_parts
-    contact_kw: dict  # feet, toes, metres_per_unit, up_axis, swing_speed_cm_per_frame of ContactSums
+    contact_kw: dict  # feet, toes, legs, metres_per_unit, up_axis, swing_speed_cm_per_frame of ContactSums
 
 
 def ground_truth(windows, stats, feet, metres_per_unit: float, up_axis: int) -> Truth:
@@ -39,7 +39,8 @@ def ground_truth(windows, stats, feet, metres_per_unit: float, up_axis: int) -> 
     ground_all = metrics.ground_heights(gt_pos_all, feet, up_axis)
     slide_kw = dict(feet=feet, metres_per_unit=metres_per_unit, up_axis=up_axis)
     fps = float(getattr(windows, "fps", 0.0) or 30.0)
-    contact_kw = dict(slide_kw, toes=tuple(feet)[1::2], swing_speed_cm_per_frame=metrics.SWING_SPEED_CM_PER_S / fps)
+    contact_kw = dict(slide_kw, toes=tuple(feet)[1::2], swing_speed_cm_per_frame=metrics.SWING_SPEED_CM_PER_S / fps,
+                      legs=metrics.leg_joints(parents, feet))
     return Truth(parents, gt_rot_all, gt_pos_all, ground_all, mean, std, slide_kw, contact_kw)
 
 
@@ -93,33 +94,47 @@ class MethodSums:
         s["slide_count"] += float(count.sum())
         framed = full if start_pose is None else np.concatenate(
             [np.broadcast_to(start_pose, p[:, :, :1].shape), full], axis=2)
-        self.contact.add(p, framed, ground, truth.contact_kw)
+        self.contact.add(p, framed, ground, truth.contact_kw, gt_p)
         self.count += displacement.size
         self.windows += displacement.shape[1]
 
 
 class ContactSums:
-    """Running sums of the ground-contact figures (``metrics.ground_penetration_parts`` on the generated
-    frames, ``metrics.swing_clearance_parts`` on them with both keyframes) of one method or the truth."""
+    """Running sums of the ground-contact and leg-motion figures of one method or the truth:
+    ``metrics.ground_penetration_parts`` and ``metrics.hover_parts`` on the generated frames,
+    ``metrics.swing_clearance_parts``, ``knee_turn_max`` and ``joint_jump_max`` on them with both keyframes."""
 
     def __init__(self):
         self.depth = self.below = self.total = self.deepest = self.clearance = self.swings = 0.0
+        self.hovering = self.leg_frames = self.knee_turn = self.jump = 0.0
 
-    def add(self, generated, framed, ground, kw: dict) -> None:
+    def add(self, generated, framed, ground, kw: dict, truth_generated=None) -> None:
+        """generated: (..., b, L, J, 3) the generated frames; framed: the same between both keyframes; ground:
+        (b,); truth_generated: (b, L, J, 3) the ground truth's generated frames (default: ``generated``)."""
         depth, below, total, deepest = metrics.ground_penetration_parts(
             generated, ground, kw["feet"], kw["metres_per_unit"], kw["up_axis"])
         clearance, swings = metrics.swing_clearance_parts(
             framed, ground, kw["toes"], kw["swing_speed_cm_per_frame"], kw["metres_per_unit"], kw["up_axis"])
+        hovering, leg_frames = metrics.hover_parts(generated, generated if truth_generated is None else truth_generated,
+                                                   ground, kw["legs"], kw["metres_per_unit"], kw["up_axis"])
         self.depth += float(depth.sum())
         self.below += float(below.sum())
         self.total += float(total.sum())
         self.deepest = max(self.deepest, float(np.max(deepest, initial=0.0)))
         self.clearance += float(clearance.sum())
         self.swings += float(swings.sum())
+        self.hovering += float(hovering.sum())
+        self.leg_frames += float(leg_frames.sum())
+        self.knee_turn = max(self.knee_turn, float(np.max(metrics.knee_turn_max(framed, kw["legs"]), initial=0.0)))
+        self.jump = max(self.jump, float(np.max(metrics.joint_jump_max(framed, kw["metres_per_unit"]), initial=0.0)))
 
     def result(self) -> dict:
-        """{penetration, penetration_max, penetration_share, toe_clearance}; toe_clearance None without swings."""
+        """{penetration, penetration_max, penetration_share, toe_clearance, hover_share, knee_turn_max,
+        joint_jump_max}; toe_clearance None without swings."""
         return {"penetration": self.depth / self.below if self.below else 0.0,
                 "penetration_max": self.deepest,
                 "penetration_share": self.below / self.total if self.total else 0.0,
-                "toe_clearance": self.clearance / self.swings if self.swings else None}
+                "toe_clearance": self.clearance / self.swings if self.swings else None,
+                "hover_share": self.hovering / self.leg_frames if self.leg_frames else 0.0,
+                "knee_turn_max": self.knee_turn,
+                "joint_jump_max": self.jump}

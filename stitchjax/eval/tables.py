@@ -30,7 +30,7 @@ def format_protocol_table(results: Mapping, title: str | None = None) -> str:
     """One row per (length, method), one column per metric, units in the header (4 decimals), a units
     legend below. ``results``: as :func:`evaluate_protocol` or :func:`benchmark_baselines` return them."""
     units = results.get("units", {})
-    short = {"m": "m", "cm/frame": "cm/f", "cm": "cm", "fraction": "frac"}
+    short = {"m": "m", "cm/frame": "cm/f", "deg/frame": "deg/f", "cm": "cm", "fraction": "frac"}
     cols = [(k, f"{k} ({short.get(units.get(k, '').split(' ')[0], '-')})") for k in evaluate.METRIC_KEYS if k in _first_row(results)]
     settings = results.get("settings", {})
     width = max([12] + [len(n) for n in settings])

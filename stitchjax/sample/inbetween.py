@@ -43,7 +43,9 @@ import numpy as np
 from stitchjax.model import losses
 from stitchjax.model import rollout as rollout_lib
 from stitchjax import rotations as R
+from stitchjax import skeleton as skeleton_lib
 from stitchjax.data.bvh import Motion
+from stitchjax.sample import footlock
 from stitchjax.skeleton import forward_kinematics
 from stitchjax.sample.trained_model import InbetweenError, Model, check_sampling, model_or_pretrained
 from stitchjax.data.windows import CONTACT_THRESHOLD, center_and_face, facing_rotation, foot_contacts
@@ -214,10 +216,10 @@ def transitions_in_frame(model: Model, start_rotations, start_positions, start_c
     = bone offsets), contacts (B, C). Returns (rotations (B, S, L+2, J, 4), positions (B, S, L+2, J, 3),
     stitch_loss (B, S)) float64: frame 0 and L+1 are the input keyframes exactly; non-root local
     positions are the start keyframe's bone offsets.
-    foot_lock: False, True (``footlock.DEFAULT_CONFIG``) or a ``footlock.FootLockConfig``: plant the feet
-    with the predicted contacts (:func:`stitchjax.sample.footlock.lock_feet`, in the input's frame, +Y up).
-    foot_lock_counts: a dict to which the pass adds "leg_frames", "planted", "let_go", "changed" and "lifted"
-      counts.
+    foot_lock: False (the default here: the transitions as the model made them), True
+    (``footlock.DEFAULT_CONFIG``) or a ``footlock.FootLockConfig``: plant the feet with the predicted contacts
+    (:func:`stitchjax.sample.footlock.lock_feet`, in the input's frame, +Y up).
+    foot_lock_counts: a dict to which the pass adds "leg_frames", "planted", "changed" and "lifted" counts.
     """
     sr, sp = np.asarray(start_rotations, np.float64), np.asarray(start_positions, np.float64)
     tr, tp = np.asarray(target_rotations, np.float64), np.asarray(target_positions, np.float64)
@@ -255,10 +257,7 @@ def transitions_in_frame(model: Model, start_rotations, start_positions, start_c
 
 def _locked(model: Model, rotations, positions, contacts, config, counts: dict | None):
     """``footlock.lock_transitions`` of (B, S, T, ...) transitions on the model's skeleton; the counts of
-    planted, let-go, changed and lifted leg-frames (generated frames only) added to ``counts``."""
-    from stitchjax import skeleton as skeleton_lib
-    from stitchjax.sample import footlock
-
+    planted, changed and lifted leg-frames (generated frames only) added to ``counts``."""
     config = footlock.DEFAULT_CONFIG if config is True else config
     names = model.joint_names or tuple(f"joint{j}" for j in range(model.num_joints))
     # the structure only (a static argument of the jitted pass): each transition's own offsets are passed
@@ -268,7 +267,7 @@ def _locked(model: Model, rotations, positions, contacts, config, counts: dict |
     if counts is not None:
         inner = stats["planted"][..., 1:-1, :]
         counts["leg_frames"] = counts.get("leg_frames", 0) + int(inner.size)
-        for key in ("planted", "let_go", "changed", "lifted"):
+        for key in ("planted", "changed", "lifted"):
             counts[key] = counts.get(key, 0) + int(stats[key][..., 1:-1, :].sum())
     return locked
 
@@ -296,7 +295,7 @@ def sampling_settings(model: Model, noise_scale=None, noise_correlation=None, no
 def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samples: int = 1, seed=0,
               search: int = 0, start_contacts=None, target_contacts=None, allow_extrapolation: bool = False, *,
               noise_scale: float | None = None, noise_ramp_steps: int | None = None,
-              noise_correlation: float | None = None, foot_lock=False) -> list:
+              noise_correlation: float | None = None, foot_lock=True) -> list:
     """Generate ``num_samples`` transitions of ``length`` frames from ``start`` to ``target``.
 
     model: a :class:`Model`, or None for the release model (``stitchjax.pretrained()``).
@@ -315,8 +314,9 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
       Each of the three left None takes the model's default sampling (``model.sampling``: the release model's
       is chosen on the validation split to spread the samples visibly; a training run's is the paper's,
       ``model.paper_sampling``).
-    foot_lock: plant the feet where the model predicts contact (:mod:`stitchjax.sample.footlock`; True, False or a
-      ``FootLockConfig``); the keyframes stay exact either way.
+    foot_lock: plant the feet where the model predicts contact, on the keyframes' ground (:mod:`stitchjax.sample.
+      footlock`; True, the default, False for the transitions as the model made them, or a ``FootLockConfig``);
+      the keyframes stay exact either way.
     The keyframes must be on the model's skeleton, frame rate and units (see
     :func:`stitchjax.sample.takes.inbetween_takes`, which brings takes from anywhere onto them).
     Returns a list of ``num_samples`` Motions of L + 2 frames (start keyframe, L generated frames,

@@ -294,7 +294,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
                     offset=(0.0, 0.0, 0.0), turn_degrees: float = 0.0, output: str = "appended",
                     scale: float = 1.0, allow_extrapolation: bool = False, noise_scale: float | None = None,
                     noise_ramp_steps: int | None = None, noise_correlation: float | None = None,
-                    offset_from: str = "start", allow_fast: bool = False, foot_lock=False) -> list:
+                    offset_from: str = "start", allow_fast: bool = False, foot_lock=True) -> list:
     """Transitions from frame ``start_frame`` of one take to frame ``target_frame`` of another (or the same).
     ``model``: a :class:`Model`, or None for the release model (``stitchjax.pretrained()``); the same in
     :func:`inbetween_clip`.
@@ -317,7 +317,8 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
       "appended" = the start take's frames 0..start_frame, the L generated frames and the target keyframe;
       "clip" = "appended" followed by the rest of the (placed) target take.
     noise_scale, noise_ramp_steps, noise_correlation: how far the samples spread (None: the model's default
-    sampling; :func:`stitchjax.sample.inbetween.inbetween`); foot_lock: plant the feet (:mod:`stitchjax.sample.footlock`).
+    sampling; :func:`stitchjax.sample.inbetween.inbetween`); foot_lock: plant the feet (:mod:`stitchjax.sample.footlock`;
+    True by default, False to keep the transitions as the model made them, or a ``FootLockConfig``).
     Returns ``num_samples`` Motions at the start take's frame rate on the model's skeleton (the takes' own
     skeleton and channel layout when their joints already match), positions in the takes' units and axes
     (exact for cm, +Y-up models, else to float64 rounding); the takes' own frames, keyframes included, are
@@ -357,7 +358,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
 def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: int, length: int | str | None = None,
                    num_samples: int = 1, seed=0, search: int = 0, allow_extrapolation: bool = False, *,
                    noise_scale: float | None = None, noise_ramp_steps: int | None = None,
-                   noise_correlation: float | None = None, allow_fast: bool = False, foot_lock=False) -> list:
+                   noise_correlation: float | None = None, allow_fast: bool = False, foot_lock=True) -> list:
     """Replace the frames between two keyframes of a take by generated transitions.
 
     Keyframes: ``motion`` frames ``start_frame`` (A) and ``end_frame`` (B), A < B. length: generated
@@ -373,8 +374,8 @@ def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: in
     mapped by name and the units checked as in :func:`inbetween_takes`. A length beyond the model's
     training lengths is refused unless ``allow_extrapolation``. noise_scale, noise_ramp_steps,
     noise_correlation: how far the samples spread (None: the model's default sampling;
-    :func:`stitchjax.sample.inbetween.inbetween`); foot_lock: plant
-    the feet (:mod:`stitchjax.sample.footlock`).
+    :func:`stitchjax.sample.inbetween.inbetween`); foot_lock: plant the feet (:mod:`stitchjax.sample.footlock`;
+    True by default, False to keep the transitions as the model made them, or a ``FootLockConfig``).
     """
     if not isinstance(motion, Motion):
         raise InbetweenError(f"expected a stitchjax.data.bvh.Motion, got {type(motion).__name__}")

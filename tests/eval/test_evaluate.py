@@ -105,9 +105,18 @@ def _sunk_method(windows, start, length, num_samples, seed):
     return r, p
 
 
+def _lifted_method(windows, start, length, num_samples, seed):
+    """Ground truth 10 cm higher: its feet hover wherever the truth's stand."""
+    r, p = _ground_truth_method(windows, start, length, num_samples, seed)
+    p = p.copy()
+    p[..., 0, 1] += 10.0
+    return r, p
+
+
 def test_protocol_measures_ground_contact(sample):
     stats, windows = sample
-    methods = {"model": _ground_truth_method, "sunk": _sunk_method, **evaluate.BASELINE_METHODS}
+    methods = {"model": _ground_truth_method, "sunk": _sunk_method, "lifted": _lifted_method,
+               **evaluate.BASELINE_METHODS}
     out = evaluate.evaluate_protocol(methods, windows[:8], stats, lengths=(30,), samples=1, progress=False)
     entry = out["lengths"]["30"]
     truth = entry["ground_truth"]
@@ -120,6 +129,10 @@ def test_protocol_measures_ground_contact(sample):
     sunk = entry["sunk"]
     assert 0.0 < sunk["penetration"] <= sunk["penetration_max"] <= 5.0 + 1e-9 and 0.0 < sunk["penetration_share"] < 1.0
     assert sunk["toe_clearance"] < truth["toe_clearance"]
+    assert truth["hover_share"] == 0.0 and sunk["hover_share"] == 0.0 and entry["lifted"]["hover_share"] > 0.1
+    assert 0.0 < truth["knee_turn_max"] < 90.0 and 0.0 < truth["joint_jump_max"] < 100.0
+    assert entry["lifted"]["knee_turn_max"] == pytest.approx(truth["knee_turn_max"])  # a rigid lift turns no knee
+    assert entry["lifted"]["joint_jump_max"] >= 10.0  # but steps 10 cm onto and off the keyframes
     table = tables.format_protocol_table(out)
     assert "penetration (cm)" in table and "toe_clearance (cm)" in table
     row = next(line for line in table.splitlines() if line.split()[:2] == ["30", "ground_truth"])

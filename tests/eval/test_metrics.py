@@ -135,3 +135,62 @@ def test_ground_penetration_and_swing_clearance_on_a_made_up_toe():
     depth, below, total, deepest = metrics.ground_penetration_parts(sunk, np.zeros(1), [0, 1])
     assert (depth[0], below[0], total[0], deepest[0]) == (51.0, 17.0, 20.0, 3.0)
     assert metrics.ground_penetration_parts(g, np.zeros(1), [0, 1])[1][0] == 0
+
+
+def _legs_pose(frames, knee_degrees):
+    """(1, T, 5, 3) positions of one leg (root, hip, knee, ankle, toe): thigh straight down 40 cm, the shin turned
+    back by 180 - knee_degrees[t] at the knee, the toe 10 cm ahead of the ankle."""
+    g = np.zeros((1, frames, 5, 3))
+    g[0, :, 0] = [0.0, 90.0, 0.0]
+    g[0, :, 1] = [0.0, 85.0, 0.0]
+    g[0, :, 2] = [0.0, 45.0, 0.0]
+    bend = np.radians(180.0 - np.asarray(knee_degrees, np.float64))
+    g[0, :, 3] = g[0, :, 2] + 40.0 * np.stack([np.zeros(frames), -np.cos(bend), -np.sin(bend)], -1)
+    g[0, :, 4] = g[0, :, 3] + [0.0, 0.0, 10.0]
+    return g
+
+
+def test_leg_joints_knee_angles_and_the_fastest_knee_turn():
+    parents = (-1, 0, 1, 2, 3)
+    legs = metrics.leg_joints(parents, (3, 4))
+    assert legs == ((1, 2, 3, 4),)
+    lafan = (-1, 0, 1, 2, 3, 0, 5, 6, 7)
+    assert metrics.leg_joints(lafan, (3, 4, 7, 8)) == ((1, 2, 3, 4), (5, 6, 7, 8))
+    angles = [180.0, 170.0, 150.0, 150.0, 140.0]
+    g = _legs_pose(5, angles)
+    np.testing.assert_allclose(metrics.knee_angles(g, legs)[0, :, 0], angles, atol=1e-6)
+    np.testing.assert_allclose(metrics.knee_turn_max(g, legs), [20.0], atol=1e-6)
+    np.testing.assert_allclose(metrics.knee_turn_max(np.stack([g[0], _legs_pose(5, [90.0] * 5)[0]]), legs),
+                               [20.0, 0.0], atol=1e-6)  # per window
+
+
+def test_joint_jump_max_is_the_longest_step_of_any_joint():
+    g = np.zeros((2, 4, 3, 3))
+    g[0, 2:, 1, 0] = 3.0  # joint 1 of window 0 steps 3 units (cm) once
+    g[1, 1:, 2] = [[0, 4, 0], [0, 4, 0], [0, 4, 0]]  # joint 2 of window 1 steps 4 once
+    np.testing.assert_allclose(metrics.joint_jump_max(g), [3.0, 4.0])
+    np.testing.assert_allclose(metrics.joint_jump_max(g * 10.0, metres_per_unit=0.001), [3.0, 4.0])  # mm data
+
+
+def test_hover_counts_long_runs_off_the_ground_where_the_truth_stands():
+    """The truth's foot stands (toe on the ground) throughout; a generated foot 6 cm up for 12 frames hovers, one 6 cm
+    up for 9 frames or 4 cm up does not; nor does a foot up while the truth's is up too."""
+    frames = 20
+    truth = _legs_pose(frames, [160.0] * frames)
+    truth[..., 1] -= truth[0, 0, 4, 1]  # the toe on y = 0, the window's ground
+    legs = metrics.leg_joints((-1, 0, 1, 2, 3), (3, 4))
+    ground = np.zeros(1)
+
+    def share(lift, first, count, truth_lift=0.0):
+        g, t = truth.copy(), truth.copy()
+        g[0, first:first + count, 3:, 1] += lift
+        t[0, first:first + count, 3:, 1] += truth_lift
+        hovering, leg_frames = metrics.hover_parts(g[None], t, ground, legs)
+        assert leg_frames[0, 0] == frames
+        return hovering[0, 0]
+
+    assert share(6.0, 4, 12) == 12.0
+    assert share(6.0, 4, 9) == 0.0  # too short
+    assert share(4.0, 4, 12) == 0.0  # not high enough
+    assert share(6.0, 4, 12, truth_lift=6.0) == 0.0  # the truth's foot is up too
+    assert share(6.0, 0, 20) == 20.0

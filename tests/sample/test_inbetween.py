@@ -253,8 +253,8 @@ def test_foot_lock_moves_only_the_legs_and_keeps_the_keyframes(model, take):
     from stitchjax.sample import footlock
 
     start, target = take[99:101], take[110:112]
-    plain = inbetween.inbetween(model, start, target, LENGTH, num_samples=CANDIDATES, seed=0)
-    eager = footlock.FootLockConfig(contact_full=0.01, speed=50.0, height=50.0, enter=0.05, leave=0.01)
+    plain = inbetween.inbetween(model, start, target, LENGTH, num_samples=CANDIDATES, seed=0, foot_lock=False)
+    eager = footlock.FootLockConfig(speed=50.0, height=50.0)
     locked = inbetween.inbetween(model, start, target, LENGTH, num_samples=CANDIDATES, seed=0, foot_lock=eager)
     legs = [1, 2, 3, 5, 6, 7]  # hips, knees and ankles of both legs
     others = [j for j in range(22) if j not in legs]
@@ -269,6 +269,46 @@ def test_foot_lock_moves_only_the_legs_and_keeps_the_keyframes(model, take):
     method(_one_window(take), 1, LENGTH, CANDIDATES, 11)
     counts = method.foot_lock_counts
     assert counts["leg_frames"] == CANDIDATES * LENGTH * 2 and 0 < counts["changed"] <= counts["leg_frames"]
+
+
+def test_foot_lock_is_on_by_default_in_the_api_and_foot_lock_false_turns_it_off(model, take):
+    start, target = take[99:101], take[110:112]
+    kw = dict(num_samples=CANDIDATES, seed=3)
+    default = inbetween.inbetween(model, start, target, LENGTH, **kw)
+    locked = inbetween.inbetween(model, start, target, LENGTH, foot_lock=True, **kw)
+    plain = inbetween.inbetween(model, start, target, LENGTH, foot_lock=False, **kw)
+    for a, b in zip(default, locked):
+        np.testing.assert_array_equal(a.rotations, b.rotations)
+    assert max(np.abs(a.rotations - b.rotations).max() for a, b in zip(default, plain)) > 1e-6
+    clip = takes.inbetween_clip(model, take, 100, 100 + LENGTH + 1, **kw)  # the take-level API too
+    plain_clip = takes.inbetween_clip(model, take, 100, 100 + LENGTH + 1, foot_lock=False, **kw)
+    locked_clip = takes.inbetween_clip(model, take, 100, 100 + LENGTH + 1, foot_lock=True, **kw)
+    for a, b, c in zip(clip, locked_clip, plain_clip):
+        np.testing.assert_array_equal(a.rotations, b.rotations)
+    assert max(np.abs(a.rotations - c.rotations).max() for a, c in zip(clip, plain_clip)) > 1e-6
+
+
+def test_cli_locks_feet_by_default_and_no_foot_lock_turns_it_off():
+    from bin_scripts import load_cli
+
+    parser = load_cli("inbetween").build_parser()
+    required = ["--bvh", "take.bvh", "--start-frame", "1", "--end-frame", "9", "--out", "out"]
+    assert parser.parse_args(required).foot_lock is True
+    assert parser.parse_args(required + ["--no-foot-lock"]).foot_lock is False
+    assert parser.parse_args(required + ["--foot-lock"]).foot_lock is True  # still accepted
+
+
+def test_evaluate_default_sampling_samples_both_model_rows_as_inbetween_does(model):
+    from bin_scripts import load_cli
+
+    cli = load_cli("evaluate")
+    chosen = dataclasses.replace(model, default_sampling={"noise_scale": 2.5, "noise_correlation": 0.9,
+                                                          "noise_ramp_steps": 4})
+    args = ["model", "--checkpoint", "run", "--data", "data"]
+    parse = cli.build_parser().parse_args
+    assert cli.model_sampling(parse(args), chosen) == (1.0, chosen.paper_sampling["noise_correlation"], 0)
+    assert cli.model_sampling(parse(args + ["--default-sampling"]), chosen) == (2.5, 0.9, 4)
+    assert cli.model_sampling(parse(args + ["--default-sampling", "--noise-ramp", "0"]), chosen) == (2.5, 0.9, 0)
 
 
 def test_cli_foot_lock_flag_keeps_the_keyframes(tiny_run, take, tmp_path):
