@@ -252,7 +252,7 @@ def test_cli_errors_are_one_line(tiny_run, tmp_path):
 def test_foot_lock_moves_only_the_legs_and_keeps_the_keyframes(model, take):
     from stitchjax.sample import footlock
 
-    start, target = take[99:101], take[110:112]
+    start, target = take[150:152], take[159:161]  # a pair whose untrained transitions hold plants
     plain = inbetween.inbetween(model, start, target, LENGTH, num_samples=CANDIDATES, seed=0, foot_lock=False)
     eager = footlock.FootLockConfig(speed=50.0, height=50.0)
     locked = inbetween.inbetween(model, start, target, LENGTH, num_samples=CANDIDATES, seed=0, foot_lock=eager)
