@@ -252,18 +252,19 @@ class JaxTrain:
     def __init__(self, config, length: int, num_windows: int | None = None, mesh=None):
         import jax
         import jax.numpy as jnp
-        from stitchjax import parallel
+        from stitchjax import parallel, specs
         from stitchjax.train import loop as train
 
         self.config = config
+        run = specs.train_spec(config)  # what the train step reads
         self.mesh = parallel.make_mesh() if mesh is None else mesh
         batch = config.train.batch_size
         data = synthetic_dataset(config, num_windows or max(64, 2 * batch), length + 2)
         self.host_data = data
         self.dataset = parallel.shard_dataset(data, self.mesh)
-        self.state = train.create_train_state(config, jax.random.PRNGKey(0), None, self.mesh)
+        self.state = train.create_train_state(run, jax.random.PRNGKey(0), None, self.mesh)
         self.length = jnp.int32(length)
-        step = train.make_train_step(config, self.mesh)
+        step = train.make_train_step(run, self.mesh)
         start = time.perf_counter()
         if hasattr(step, "update"):  # train_step = jitted sampler, then jitted update (train.py)
             self.sample = step.sample
@@ -327,7 +328,7 @@ class JaxInfer:
             model_spec = networks.model_spec(config) if hasattr(networks, "model_spec") else config
             self.params = networks.init_params(model_spec, key)
             self.phase_params = phase.init_phase_params(key, config.data.num_joints * 4 + 3 + config.data.num_contacts,
-                                                        config)
+                                                        config.phase)
             self.api = "rollout.rollout (vmapped over samples)"
             one_start = jax.tree.map(lambda x: jnp.asarray(x[0]), start)
             one_target = jax.tree.map(lambda x: jnp.asarray(x[0]), target)

@@ -22,7 +22,7 @@ import sys
 REPO = pathlib.Path(__file__).resolve().parent.parent
 
 _DUMP = r'''
-import sys
+import inspect, sys
 sys.path.insert(0, sys.argv[1])
 import jax, jax.numpy as jnp
 from stitchjax import config as C, parallel
@@ -39,12 +39,16 @@ else:  # before the stage subpackages
         random_model = inbetween.random_model
 cfg = C.apply_overrides(C.load_config(sys.argv[1] + "/configs/lafan1_cpu.py"), sys.argv[4:])
 mesh = parallel.make_mesh()
-update = train.make_train_step(cfg, mesh, 52).update
+run = cfg
+if "spec" in inspect.signature(train.make_train_step).parameters:  # the train step takes the run's TrainSpec
+    from stitchjax import specs
+    run = specs.train_spec(cfg)
+update = train.make_train_step(run, mesh, 52).update
 B, T, J = 32, 52, 22
 shapes = {"rotations": (B, T, J, 4), "root_positions": (B, T, 3), "contacts": (B, T, 4),
           "offsets": (B, 1, J, 3), "global_positions": (B, T, J, 3), "phase": (B, T, 2 * cfg.data.num_contacts)}
 batch = {k: jax.ShapeDtypeStruct(s, jnp.float32) for k, s in shapes.items()}
-step = update.lower(train.abstract_train_state(cfg, mesh), batch, jnp.int32(50)).compile().as_text()
+step = update.lower(train.abstract_train_state(run, mesh), batch, jnp.int32(50)).compile().as_text()
 model = random_model(cfg)
 key = {"rotations": jnp.zeros((1, J, 4)), "root_position": jnp.zeros((1, 3)), "contacts": jnp.zeros((1, 4))}
 spec = getattr(model, "rollout_spec", cfg)  # checkouts before the rollout took a spec: the Config

@@ -42,8 +42,7 @@ __all__ = ["Twin", "Generator", "Posterior", "Discriminator", "PhaseNet", "Unsup
            "batch_to_torch", "jax_noise", "generator_noise", "check_equal_loss", "check_equal_gradients",
            "matmul_flops", "num_steps", "schedule", "interpolation_weight", "kl_warmup"]
 
-_ACTIVATIONS = {"elu": nn.ELU, "relu": nn.ReLU, "gelu": lambda: nn.GELU(approximate="tanh"),  # flax: tanh form
-                "silu": nn.SiLU, "tanh": nn.Tanh, "leaky_relu": lambda: nn.LeakyReLU(0.2)}
+_ACTIVATION = nn.ELU  # the generator's hidden layers (networks.ACTIVATION)
 
 
 class UnsupportedConfig(ValueError):
@@ -55,26 +54,13 @@ def check_supported(config) -> None:
     m, lc, tc = config.model, config.loss, config.train
     allowed = {
         "model.posterior": (m.posterior, ("next_frame", "none")),
-        "model.gamma_schedule": (m.gamma_schedule, ("direction", "transition")),
-        "model.variance_blend": (m.variance_blend, ("std", "var")),
-        "model.activation": (m.activation, tuple(_ACTIVATIONS)),
-        "model.disc_features": (m.disc_features, ("positions+velocity",)),
-        "loss.reduction": (lc.reduction, ("sum", "mean")),
         "model.matmul_dtype": (m.matmul_dtype, ("float32",)),
-        "model.noise_correlation": (m.noise_correlation, (0.0,)),
-        "model.posterior_horizon": (m.posterior_horizon, (1,)),
-        "loss.prior_rollout": (bool(lc.prior_rollout and m.posterior != "none"), (False,)),
         "loss.prior_sample_fraction": (lc.prior_sample_fraction if m.posterior != "none" else 0.0, (0.0,)),
-        "loss.prior_best_of": (lc.prior_best_of, (1,)),
         "loss.foot_skate_contacts": (lc.foot_skate_contacts, ("truth",)),
         "train.lr_decay_to": (tc.lr_decay_to, (1.0,)),
     }
     hints = {"model.matmul_dtype": " (the twin runs float32; time it under torch.autocast for bfloat16)",
-             "loss.prior_rollout": " (the second rollout with z from the prior is not in the twin)",
              "loss.prior_sample_fraction": " (every window's z comes from the posterior in the twin)",
-             "loss.prior_best_of": " (the twin rolls every window out once)",
-             "model.noise_correlation": " (the twin takes independent noise per frame)",
-             "model.posterior_horizon": " (the twin's posterior reads the next frame)",
              "loss.foot_skate_contacts": " (the twin holds the ground truth's contacts still)",
              "train.lr_decay_to": " (the twin keeps the learning rate constant)"}
     for field, (value, ok) in allowed.items():
@@ -83,17 +69,13 @@ def check_supported(config) -> None:
                                     f"{', '.join(map(repr, ok))}{hints.get(field, '')}")
 
 
-def _make_activation(name: str) -> nn.Module:
-    return _ACTIVATIONS[name]()
-
-
-def mlp(sizes, activation: str, activate_last: bool = True) -> nn.Sequential:
-    """Linear layers in_dim -> sizes[1] -> ... with the activation after each (or all but the last)."""
+def mlp(sizes, activate_last: bool = True) -> nn.Sequential:
+    """Linear layers in_dim -> sizes[1] -> ... with the ELU after each (or all but the last)."""
     layers = []
     for i in range(len(sizes) - 1):
         layers.append(nn.Linear(sizes[i], sizes[i + 1]))
         if activate_last or i < len(sizes) - 2:
-            layers.append(_make_activation(activation))
+            layers.append(_ACTIVATION())
     return nn.Sequential(*layers)
 
 
@@ -113,11 +95,11 @@ class MoELayer(nn.Module):
 class Posterior(nn.Module):
     """q(z | h, next frame): [h, next_state, next_state - state] -> hidden layer -> (mu_q, logvar_q)."""
 
-    def __init__(self, lstm_size: int, state: int, width: int, latent: int, activation: str):
+    def __init__(self, lstm_size: int, state: int, width: int, latent: int):
         super().__init__()
         self.latent = latent
         self.hidden = nn.Linear(lstm_size + 2 * state, width)
-        self.act = _make_activation(activation)
+        self.act = _ACTIVATION()
         self.head = nn.Linear(width, 2 * latent)
 
     def forward(self, h, state, next_state):
@@ -134,28 +116,25 @@ class Generator(nn.Module):
         self.config = config
         joints = d.num_joints
         state = joints * 4 + 3 + d.num_contacts
-        offset = joints * 4 + 3 + (1 if m.time_to_target_input else 0)
+        offset = joints * 4 + 3 + 1  # the offsets and the time to the target
         widths = list(m.encoder_widths)
-        self.state_encoder = mlp([state] + widths, m.activation)
-        self.offset_encoder = mlp([offset] + widths, m.activation)
-        self.target_encoder = mlp([state] + widths, m.activation)
+        self.state_encoder = mlp([state] + widths)
+        self.offset_encoder = mlp([offset] + widths)
+        self.target_encoder = mlp([state] + widths)
         self.lstm = nn.LSTMCell(3 * widths[-1], m.lstm_size)
         self.current_head = nn.Linear(m.lstm_size, 2 * m.latent_dim)
         self.target_head = nn.Linear(m.lstm_size, 2 * m.latent_dim)
-        self.posterior = (Posterior(m.lstm_size, state, widths[-1], m.latent_dim, m.activation)
+        self.posterior = (Posterior(m.lstm_size, state, widths[-1], m.latent_dim)
                           if m.posterior == "next_frame" else None)
         num_out = 3 + joints * 4 + d.num_contacts
         outs = list(m.decoder_widths) + [num_out]
-        first = m.latent_dim + 2 * state + (m.lstm_size if m.decoder_uses_lstm else 0)
-        z_extra = m.latent_dim if m.z_every_layer else 0
-        ins = [first] + [width + z_extra for width in outs[:-1]]
+        ins = [m.latent_dim + 2 * state] + [width + m.latent_dim for width in outs[:-1]]  # z at every layer
         if m.phase_modulation:
-            self.gating = mlp([2 * d.num_contacts] + list(m.gating_widths) + [m.num_experts], m.activation,
-                              activate_last=False)
+            self.gating = mlp([2 * d.num_contacts] + list(m.gating_widths) + [m.num_experts], activate_last=False)
             self.layers = nn.ModuleList(MoELayer(i, o, m.num_experts) for i, o in zip(ins, outs))
         else:
             self.layers = nn.ModuleList(nn.Linear(i, o) for i, o in zip(ins, outs))
-        self.act = _make_activation(m.activation)
+        self.act = _ACTIVATION()
 
     def forward(self, carry, state, target, offset, gamma, phase, eps, next_state=None):
         """carry (c, h); state, target (B, S); offset (B, J*4+3[+1]); gamma () tensor; phase (B, P);
@@ -173,12 +152,8 @@ class Generator(nn.Module):
         mu_t, logvar_t = tgt[:, :latent], tgt[:, latent:]
         if m.latent_interpolation:
             mean = (1 - gamma) * mu + gamma * mu_t
-            if m.variance_blend == "std":
-                std = (1 - gamma) * torch.exp(0.5 * logvar) + gamma * torch.exp(0.5 * logvar_t)
-                mu_p, logvar_p = mean, 2.0 * torch.log(std)
-            else:
-                var = (1 - gamma) ** 2 * torch.exp(logvar) + gamma ** 2 * torch.exp(logvar_t)
-                mu_p, logvar_p = mean, torch.log(var)
+            std = (1 - gamma) * torch.exp(0.5 * logvar) + gamma * torch.exp(0.5 * logvar_t)
+            mu_p, logvar_p = mean, 2.0 * torch.log(std)
         else:
             mu_p, logvar_p = mu, logvar
         if self.posterior is not None and next_state is not None:
@@ -186,10 +161,10 @@ class Generator(nn.Module):
         else:
             mu_q, logvar_q = mu_p, logvar_p
         z = mu_q + torch.exp(0.5 * logvar_q) * eps
-        y = torch.cat([z, state, target] + ([h] if m.decoder_uses_lstm else []), -1)
+        y = torch.cat([z, state, target], -1)
         coefficients = torch.softmax(self.gating(phase), -1) if m.phase_modulation else None
         for i, layer in enumerate(self.layers):
-            if i > 0 and m.z_every_layer:
+            if i > 0:
                 y = torch.cat([y, z], -1)
             y = layer(y, coefficients) if coefficients is not None else layer(y)
             if i < len(self.layers) - 1:
@@ -280,13 +255,9 @@ def schedule(config, length: int):
     return h, k, h + k, length - h + k
 
 
-def interpolation_weight(config, frame_number: int, frames_in_direction: int, length: int) -> float:
-    """gamma for the step making a direction's ``frame_number``-th frame: n / N ("direction") or n / (L + 1)."""
-    if config.model.gamma_schedule == "transition":
-        total = length + 1.0
-    else:
-        total = max(float(frames_in_direction), 1.0)
-    return min(max(frame_number / total, 0.0), 1.0)
+def interpolation_weight(frame_number: int, frames_in_direction: int) -> float:
+    """gamma for the step making a direction's ``frame_number``-th frame: n / N."""
+    return min(max(frame_number / max(float(frames_in_direction), 1.0), 0.0), 1.0)
 
 
 def kl_warmup(step: int, warmup_steps: int) -> float:
@@ -415,10 +386,9 @@ class Twin:
         target_state = torch.cat([target["rotations"].flatten(1), target["velocity"], target_contacts], -1)
         offset = torch.cat([(target["rotations"] - current["rotations"]).flatten(1),
                             (target["root"] - current["root"]) / d.position_scale], -1)
-        if m.time_to_target_input:
-            offset = torch.cat([offset, time_to_target.reshape(1, 1).expand(batch, 1)], -1)
+        offset = torch.cat([offset, time_to_target.reshape(1, 1).expand(batch, 1)], -1)
         if m.phase_modulation and self.has_phase:
-            phase = self.phase_net(state.detach() if m.stop_phase_gradient else state)
+            phase = self.phase_net(state.detach())
         else:
             phase = state.new_zeros(batch, 2 * d.num_contacts)
         carry, y, gaussians = gen(carry, state, target_state, offset, gamma, phase, eps, next_state)
@@ -470,7 +440,7 @@ class Twin:
                     f_target, f_dist = reverse(bwd), length + 1 - 2 * i
                 else:
                     f_target, f_dist = target_frame, length + 1 - i
-                gamma = scalar(interpolation_weight(self.config, i + 1, n_fwd, length))
+                gamma = scalar(interpolation_weight(i + 1, n_fwd))
                 fwd_carry, fwd, g = self.frame_step(self.generators["forward"], fwd_carry, fwd, f_target,
                                                     time_to_target(f_dist), gamma, eps[:, i, 0],
                                                     None if truth is None else truth["forward"][:, i])
@@ -481,7 +451,7 @@ class Twin:
                     b_target, b_dist = reverse(fwd), length - 2 * i
                 else:
                     b_target, b_dist = start_frame, length + 1 - i
-                gamma = scalar(interpolation_weight(self.config, i + 1, n_bwd, length))
+                gamma = scalar(interpolation_weight(i + 1, n_bwd))
                 bwd_carry, bwd, g = self.frame_step(self.generators["backward"], bwd_carry, bwd, b_target,
                                                     time_to_target(b_dist), gamma, eps[:, i, 1],
                                                     None if truth is None else truth["backward"][:, i])
@@ -550,10 +520,10 @@ class Twin:
         return torch.cat([rel.flatten(2), vel], -1)
 
     def _norm1(self, x, dims):
-        return x.abs().sum(dims) if self.config.loss.reduction == "sum" else x.abs().mean(dims)
+        return x.abs().sum(dims)
 
     def _latent_sum(self, x):
-        return x.sum(-1) if self.config.loss.reduction == "sum" else x.mean(-1)
+        return x.sum(-1)
 
     def _targets(self, batch, length: int, count: int, backward: bool):
         """Ground truth of a direction's first ``count`` frames in its own time (forward frame i + 1, or
@@ -645,8 +615,6 @@ class Twin:
             terms["foot_skate"] = self._foot_skate(out, batch, length)
         total = (terms["state"] + lc.kl_weight * kl_scale * terms.pop("kl_penalty")
                  + lc.stitch_weight * terms["stitch"] + lc.fk_weight * terms["fk"] + lc.gen_weight * terms["adv_g"])
-        if m.posterior != "none" and lc.prior_kl_weight:
-            total = total + lc.prior_kl_weight * terms["kl_prior"]
         if lc.foot_skate_weight:
             total = total + lc.foot_skate_weight * terms["foot_skate"]
         for name in directions:
@@ -851,7 +819,7 @@ def matmul_flops(config, batch: int, length: int) -> dict:
     """
     m, d = config.model, config.data
     state = d.num_joints * 4 + 3 + d.num_contacts
-    offset = d.num_joints * 4 + 3 + (1 if m.time_to_target_input else 0)
+    offset = d.num_joints * 4 + 3 + 1
 
     def chain(sizes):
         return sum(sizes[i] * sizes[i + 1] for i in range(len(sizes) - 1))
@@ -865,8 +833,7 @@ def matmul_flops(config, batch: int, length: int) -> dict:
     if m.posterior == "next_frame":
         per_step["posterior"] = (m.lstm_size + 2 * state) * enc[-1] + enc[-1] * 2 * m.latent_dim
     outs = list(m.decoder_widths) + [3 + d.num_joints * 4 + d.num_contacts]
-    ins = ([m.latent_dim + 2 * state + (m.lstm_size if m.decoder_uses_lstm else 0)]
-           + [w + (m.latent_dim if m.z_every_layer else 0) for w in outs[:-1]])
+    ins = [m.latent_dim + 2 * state] + [w + m.latent_dim for w in outs[:-1]]
     decoder = sum(i * o for i, o in zip(ins, outs))
     if m.phase_modulation:
         per_step["experts"] = m.num_experts * decoder + sum(m.num_experts * o for o in outs)  # + blend

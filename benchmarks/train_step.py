@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from stitchjax import config as config_lib
-from stitchjax import parallel
+from stitchjax import parallel, specs
 from stitchjax.data import datasets
 from stitchjax.train import loop as train
 
@@ -52,13 +52,14 @@ def device_memory() -> str:
     return f"peak {peak:.0f} MiB in use"
 
 
-def time_step(config, data, length: int, steps: int, window: int | None, mesh, initial_state):
-    """(compile_s, seconds per step) of train_step at `length` with the window cut to `window` frames."""
+def time_step(spec, data, length: int, steps: int, window: int | None, mesh, initial_state):
+    """(compile_s, seconds per step) of train_step at `length` with the window cut to `window` frames
+    (spec: the run's ``specs.TrainSpec``)."""
     state = jax.tree.map(jnp.copy, initial_state)  # the update donates its state argument
     device_data = parallel.shard_dataset(data, mesh)
-    sample = train.make_sampler(config, mesh, window)
+    sample = train.make_sampler(spec, mesh, window)
     batch = sample(device_data, state.key, state.step)
-    update = train.make_update_step(config, mesh)
+    update = train.make_update_step(spec, mesh)
     t0 = time.perf_counter()
     compiled = update.lower(state, batch, jnp.int32(length)).compile()
     compile_s = time.perf_counter() - t0
@@ -96,16 +97,17 @@ def main() -> None:
     config = config_lib.apply_overrides(config_lib.load_config(args.config),
                                         [f"train.batch_size={args.batch}"] + args.overrides)
     mesh = parallel.make_mesh()
-    data, _ = datasets.load_training_data(config, None)
+    data, _ = datasets.load_training_data(config.data, None)
+    spec = specs.train_spec(config)
     print(f"config {args.config}: batch {args.batch}, transition length {args.length}, window "
           f"{config.data.window} frames; {jax.device_count()} x {jax.devices()[0].device_kind} "
           f"({jax.devices()[0].platform}); jax {jax.__version__}")
 
     t0 = time.perf_counter()
-    initial_state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
+    initial_state = train.create_train_state(spec, jax.random.PRNGKey(0), None, mesh)
     jax.block_until_ready(initial_state)
     print(f"create_train_state (jit init, compile included): {time.perf_counter() - t0:.1f} s")
-    compile_s, per_step = time_step(config, data, args.length, args.steps, None, mesh, initial_state)
+    compile_s, per_step = time_step(spec, data, args.length, args.steps, None, mesh, initial_state)
     print(f"masked (traced length, full window): compile {compile_s:.1f} s; {per_step * 1e3:.0f} ms/step; "
           f"{args.batch / per_step:.1f} windows/s")
     print(f"peak host RSS {peak_rss_mib():.0f} MiB; device memory: {device_memory()}")
@@ -119,7 +121,7 @@ def main() -> None:
         if bucket + 2 >= config.data.window:  # the full window: the masked step above
             b_compile, b_step = compile_s, per_step
         else:
-            b_compile, b_step = time_step(config, data, min(args.length, bucket), args.steps, bucket + 2, mesh,
+            b_compile, b_step = time_step(spec, data, min(args.length, bucket), args.steps, bucket + 2, mesh,
                                           initial_state)
         bucket_cost[bucket] = (b_compile, b_step)
         print(f"bucket {bucket:2d} (window {bucket + 2}): compile {b_compile:.1f} s; {b_step * 1e3:.0f} ms/step; "

@@ -15,7 +15,6 @@ shapes, dtypes and shardings without allocating a second copy.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import logging
 import os
@@ -65,11 +64,9 @@ def open_manager(
     return ocp.CheckpointManager(directory, options=options, item_names=("state", "config", "extras"))
 
 
-def config_to_json(config: Any) -> dict:
-    """A (nested, frozen) dataclass config, or a dict, as a JSON-able dict."""
-    if dataclasses.is_dataclass(config):
-        config = dataclasses.asdict(config)
-    return json.loads(json.dumps(config, default=_json_default))
+def _json_ready(value) -> dict:
+    """A dict as JSON reads it back (tuples as lists, numpy values as Python ones)."""
+    return json.loads(json.dumps(value, default=_json_default))
 
 
 def _json_default(value):
@@ -82,11 +79,11 @@ def _json_default(value):
     raise TypeError(f"cannot store {type(value).__name__} in a checkpoint's JSON")
 
 
-def save(manager: ocp.CheckpointManager, step: int, state: Any, config: Any, extras: dict | None = None,
+def save(manager: ocp.CheckpointManager, step: int, state: Any, config_json: dict, extras: dict | None = None,
          force: bool = True) -> bool:
     """Save `state` as checkpoint `step`, with the config and `extras` (JSON-able dict) beside it as JSON.
 
-    config: a dataclass config or its JSON-able dict (`stitchjax.config.to_dict`).
+    config_json: the run's config as a JSON-able dict (`stitchjax.config.to_dict`).
 
     Returns True when a checkpoint was written (False when orbax's policy skipped the step).
     """
@@ -94,8 +91,8 @@ def save(manager: ocp.CheckpointManager, step: int, state: Any, config: Any, ext
         int(step),
         args=ocp.args.Composite(
             state=ocp.args.StandardSave(state),
-            config=ocp.args.JsonSave(config_to_json(config)),
-            extras=ocp.args.JsonSave(json.loads(json.dumps(extras or {}, default=_json_default))),
+            config=ocp.args.JsonSave(_json_ready(config_json)),
+            extras=ocp.args.JsonSave(_json_ready(extras or {})),
         ),
         force=force,
     )

@@ -1,6 +1,6 @@
 """Experiment configuration: frozen dataclasses holding every hyperparameter.
 
-Size (~500 lines): the single list of every field, its default, its reason and its allowed values, in one place.
+Size (~530 lines): the single list of every field, its default, its reason and its allowed values, in one place.
 
 ``Config(data, model, loss, train, phase)``. Each section lists the paper's fields first (``# paper``, section
 4.4 of Ren et al. 2023, each default the paper's value), then the choices the paper leaves open (each with a
@@ -26,14 +26,18 @@ import typing
 
 __all__ = [
     "DataConfig", "ModelConfig", "LossConfig", "TrainConfig", "PhaseConfig", "Config",
-    "load_config", "apply_overrides", "to_dict", "from_dict", "save_config", "read_config",
-    "configs_dir", "ConfigError", "variant", "CHOICES", "POSTERIOR_ONLY_FIELDS", "inert_fields",
-    "check_overrides_take_effect", "EXTENSIONS", "ABLATION_SWITCHES", "extensions_on",
+    "load_config", "apply_overrides", "to_dict", "from_dict", "configs_dir", "ConfigError", "variant", "CHOICES",
+    "POSTERIOR_ONLY_FIELDS", "inert_fields", "check_overrides_take_effect", "EXTENSIONS", "ABLATION_SWITCHES",
+    "extensions_on", "RETIRED_FIELDS", "Retired", "RetiredFieldError",
 ]
 
 
 class ConfigError(ValueError):
     """A config name, field or value is wrong; the message says which and how to fix it."""
+
+
+class RetiredFieldError(ConfigError):
+    """A saved config sets a removed field (:data:`RETIRED_FIELDS`) to a value the code no longer has."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,8 +88,6 @@ class ModelConfig:
     discriminators: bool = True  # paper; False = no discriminators: no L_G, no L_D, no discriminator update
     lstm: bool = True  # paper; False = the concatenated encoder embeddings go straight to the latent heads
     num_experts: int = 4  # paper
-    gamma_schedule: str = "direction"  # paper: gamma rises from 0 at the generator's first frame to 1 at the
-    # frame it targets, n / (frames this direction makes); "transition" = n / (L + 1) for both directions
     disc_short_window: int = 2  # paper (RMIB short discriminator: 2 frames)
     disc_long_window: int = 10  # paper (RMIB long discriminator: 10 frames)
     # --- choices the paper leaves open
@@ -94,30 +96,15 @@ class ModelConfig:
     latent_dim: int = 32  # reason: small latent keeps KL cheap; diversity comes from per-frame sampling
     decoder_widths: tuple = (512, 512)  # reason: MANN-style 3-layer experts (2 hidden layers of 512)
     gating_widths: tuple = (64, 64)  # reason: MANN gating network is a small 3-layer MLP on the phase
-    activation: str = "elu"  # reason: MANN experts and gating use ELU
     posterior: str = "next_frame"  # reason: z drawn from the prior at training carries nothing (docs/design.md §5.5).
     # "next_frame": at training z ~ q(z | h, ground-truth next frame) with KL(q || p), at inference z ~ p;
     # "none": z ~ p at training too (Eq. 5 as written)
-    z_every_layer: bool = True  # reason: z enters every decoder layer (MANN/MVAE experts), so it is not washed out
-    decoder_uses_lstm: bool = False  # reason: True adds a deterministic path around z, and the posterior collapses
-    time_to_target_input: bool = True  # reason: the generator must know when it arrives (RMIB's time-to-arrival)
     stitch_buffer: int = 4  # reason: K (paper leaves it open); 2K = 8 overlap frames, clipped to L//2
-    variance_blend: str = "std"  # reason: "std" blends mu and sigma linearly (the W2 geodesic between diagonal
-    # Gaussians: sigma stays 1 when both are 1); "var" = law of (1-g)z + g z_t, z independent
     contact_input_gradient: bool = False  # reason: contact outputs fed back without gradient stay contacts
-    stop_phase_gradient: bool = True  # reason: the phase network is frozen and only conditions gating
     disc_widths: tuple = (512, 256)  # reason: RMIB discriminators: temporal conv then 2 dense layers
-    disc_features: str = "positions+velocity"  # reason: FK positions relative to the root (J-1)*3 and the root
-    # velocity 3, scaled: pose and trajectory, invariant to where the clip sits
     matmul_dtype: str = "float32"  # reason: full precision; "bfloat16" = generator matmuls on bfloat16 operands with
     # float32 accumulation (faster where the hardware has bfloat16 units); checkpoints work with either
     # --- extensions (off by default; config.EXTENSIONS)
-    keyframe_velocity: str = "zero"  # "zero": keyframes are poses, root velocity input 0 (the paper); "mean": both get
-    # the transition's mean root velocity, (target root - start root) / (L + 1)
-    noise_correlation: float = 0.0  # 0: independent latent noise per frame (the paper); rho in [0, 1]: AR(1) noise
-    # over frames, each frame still standard normal (noise.correlated_noise), at training and as sampling default
-    posterior_horizon: int = 1  # 1: q(z | h, ground-truth next frame); k > 1: q sees the frame k steps ahead
-    # (clipped at the keyframe it heads for) with the root's mean velocity over those k steps
     update_anchor: str = "current"  # "current": each generated frame is the current frame plus the predicted
     # update (the paper); "interpolation": the predicted update is added to the next frame of the straight path
     # from the current frame to its target (rollout.interpolation_anchor): a zero update interpolates
@@ -135,21 +122,11 @@ class LossConfig:
     fk_weight: float = 0.5  # paper alpha3
     disc_weight: float = 0.1  # paper alpha4 (scales L_D in the discriminator update)
     gen_weight: float = 0.1  # paper alpha5 (scales L_G in the generator update)
-    # --- choices the paper leaves open
-    reduction: str = "sum"  # reason: ||.||_1 as written: sum over components, mean over frames and batch
-    # ("mean" also averages over components)
     # --- extensions (off by default; config.EXTENSIONS)
     kl_warmup_steps: int = 0  # > 0 ramps the KL weight linearly from 0 over this many steps
     free_bits: float = 0.0  # nats per frame (summed over latent dims) of KL(q || p) that cost nothing (Kingma 2016)
-    prior_kl_weight: float = 0.0  # the paper's KL(p || N(0, I)) as an extra term on the prior with model.posterior
-    prior_rollout: bool = False  # True also rolls out every batch with z from the prior, for the adversarial and
-    # stitching terms only
     prior_sample_fraction: float = 0.0  # this fraction of each batch's windows is rolled out with z from the prior
     # p, as at inference, instead of from q, and every term scores them
-    prior_sample_reconstruction_weight: float = 1.0  # weight of the state and FK terms on those prior windows
-    # (1 = every window alike; objective.reconstruction_weights)
-    prior_best_of: int = 1  # > 1 rolls each prior window out this many times; the state and FK terms score only
-    # the copy nearest the ground truth (Bhattacharyya et al. 2018; objective.prior_copies, objective.best_of_weights)
     foot_skate_weight: float = 0.0  # > 0 adds losses.foot_skate_loss: the feet's movement where they are in contact
     foot_skate_contacts: str = "truth"  # which feet that term holds: "truth" = the ground truth's contact labels;
     # "height" = the generated foot near the ground (the foot-slide metric's weight); "height_either" = near the
@@ -182,10 +159,8 @@ class TrainConfig:
     seed: int = 0  # reason: reproducibility
     # --- run control (stitchjax/train/loop.py)
     log_every: int = 100  # reason: steps between metric logs
-    checkpoint_every: int = 1  # reason: epochs between checkpoints
-    max_to_keep: int = 3  # reason: orbax CheckpointManager retention
     max_steps: int = 0  # reason: 0 = num_epochs epochs; > 0 caps the run (bin/train --max-steps)
-    checkpoint_every_steps: int = 0  # reason: > 0 overrides checkpoint_every (epochs) with a step count
+    checkpoint_every_steps: int = 0  # reason: steps between checkpoints; 0 = one a training epoch
     eval_every: int = 0  # reason: > 0 runs stitchjax.eval.validation every this many steps (bin/train; 0 = off)
     eval_windows: int = 32  # reason: windows validated (of data.validation_files, else the test windows;
     # evenly spaced, the same every time): cheap
@@ -211,22 +186,13 @@ class TrainConfig:
 
 @dataclasses.dataclass(frozen=True)
 class PhaseConfig:
-    """Every knob of stitchjax.data.phase: local-phase labels, the phase network and its pretraining (the paper uses
-    local motion phases but gives none of these settings)."""
+    """The phase network and its pretraining (stitchjax.data.phase; the paper uses local motion phases but gives
+    none of these settings; the labels' fit is stitchjax.data.phase's named constants)."""
     # --- choices the paper leaves open
-    window_seconds: float = 1.0  # reason: +-1 s fit window holds >= 1 period for F >= 0.5 Hz
-    min_frequency: float = 0.25  # reason: lowest of the sinusoid fit's frequency grid (Hz; docs/design.md §5.1)
-    max_frequency: float = 4.0  # reason: highest of the grid (Hz; docs/design.md §5.1)
-    num_frequencies: int = 31  # reason: 0.125 Hz grid, finer than a 2 s window resolves
-    smoothing_seconds: float = 0.05  # reason: removes 1-2 frame contact flicker
-    ridge: float = 1.0  # reason: keeps near-degenerate low-frequency fits finite
     hidden_dim: int = 128  # reason: small MLP from one frame's state to the 8 phase features
     num_layers: int = 2  # reason: two ELU hidden layers suffice for the phase regression
     steps: int = 5000  # reason: the phase regression converges quickly
     batch_size: int = 512  # reason: frames are cheap
-    learning_rate: float = 1e-3  # reason: Adam default scale for a small MLP
-    include_reversed: bool = True  # reason: the backward generator feeds the phase network time-reversed
-    # states, so it is also pretrained on time-reversed windows (labels fitted on the reversed contacts)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -330,10 +296,10 @@ def inert_fields(config: Config) -> tuple:
     return tuple(inert)
 
 
-def check_overrides_take_effect(config: Config, overrides) -> None:
-    """Raise ConfigError when an override sets a field that changes nothing under ``config`` (the config with
-    the overrides applied): a run would silently train without it (:func:`inert_fields`)."""
-    inert = set(inert_fields(config))
+def check_overrides_take_effect(inert: tuple, overrides) -> None:
+    """Raise ConfigError when one of the "section.field=value" ``overrides`` sets a field of ``inert``
+    (:func:`inert_fields` of the config with the overrides applied): a run would silently train without it."""
+    inert = set(inert)
     given = [item.split("=", 1)[0].strip() for item in overrides or () if "=" in item]
     wasted = [key for key in given if key in inert]
     if wasted:
@@ -381,6 +347,10 @@ def apply_overrides(config: Config, overrides) -> Config:
         sub = getattr(config, section)
         types_ = _field_types(type(sub))
         if field not in types_:
+            retired = RETIRED_FIELDS.get((section, field))
+            if retired is not None:
+                raise ConfigError(f"override {item!r}: {section}.{field} was removed (it last lived in commit "
+                                  f"{retired.commit})")
             raise ConfigError(f"override {item!r}: {section} has no field {field!r}; fields: {', '.join(types_)}")
         current = getattr(sub, field)
         try:
@@ -425,8 +395,9 @@ def to_dict(config: Config) -> dict:
 def from_dict(d: dict) -> Config:
     """Inverse of :func:`to_dict`. Unknown keys raise ConfigError. A missing field of :data:`EXTENSIONS` or
     :data:`ABLATION_SWITCHES` takes its default (the paper's behaviour, which is also what a run did before the
-    field existed); any other
-    missing field raises ConfigError naming the fields to add (with the values the run was trained with)."""
+    field existed); any other missing field raises ConfigError naming the fields to add (with the values the
+    run was trained with). A field of :data:`RETIRED_FIELDS` is dropped when it holds the value the code now
+    always uses, and refused (ConfigError naming it and the last commit that had it) when it holds another."""
     kwargs, missing = {}, []
     classes = {f.name: f.default_factory for f in dataclasses.fields(Config) if f.name in _SECTIONS}
     for key, value in d.items():
@@ -442,6 +413,7 @@ def from_dict(d: dict) -> Config:
                     if name not in value and f"{key}.{name}" not in EXTENSIONS + ABLATION_SWITCHES]
         for name, v in value.items():
             if (key, name) in RETIRED_FIELDS:
+                _check_retired(key, name, v)
                 continue
             if name not in types_:
                 raise ConfigError(f"unknown field {key}.{name} (saved by another stitchjax version?)")
@@ -457,14 +429,24 @@ def from_dict(d: dict) -> Config:
     return Config(**kwargs)
 
 
-def save_config(config: Config, path) -> None:
-    """Write the config as JSON (e.g. beside a checkpoint)."""
-    pathlib.Path(path).write_text(json.dumps(to_dict(config), indent=2, sort_keys=True) + "\n")
+def _check_retired(section: str, field: str, value) -> None:
+    """ConfigError when a saved config's retired ``section.field`` holds a value other than the one the code
+    now always uses (:data:`RETIRED_FIELDS`)."""
+    retired = RETIRED_FIELDS[(section, field)]
+    if retired is None or _same_value(value, retired.value):
+        return
+    raise RetiredFieldError(
+        f"the saved config sets {section}.{field}={value!r}, but stitchjax no longer has that field: it always "
+        f"uses {retired.value!r} now. The run was made by an earlier version; load it with commit {retired.commit} "
+        f"(the last that had {section}.{field}), e.g. `git worktree add ../stitchjax_{retired.commit} "
+        f"{retired.commit}`")
 
 
-def read_config(path) -> Config:
-    """Read a config written by :func:`save_config`."""
-    return from_dict(json.loads(pathlib.Path(path).read_text()))
+def _same_value(saved, value) -> bool:
+    """A JSON value (lists for tuples) equal to a field value."""
+    if isinstance(value, tuple):
+        return isinstance(saved, (list, tuple)) and tuple(saved) == value
+    return saved == value and isinstance(saved, bool) == isinstance(value, bool)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -475,11 +457,10 @@ EXTENSIONS = (
     # data: the paper trains on every window of subjects 1-4, starting every 20 frames, unmirrored
     "data.validation_files", "data.extra_train_dirs", "data.random_starts", "data.mirror",
     # model
-    "model.keyframe_velocity", "model.noise_correlation", "model.posterior_horizon", "model.update_anchor",
+    "model.update_anchor",
     # loss: terms and weightings beyond Eq. 9
-    "loss.kl_warmup_steps", "loss.free_bits", "loss.prior_kl_weight", "loss.prior_rollout",
-    "loss.prior_sample_fraction", "loss.prior_sample_reconstruction_weight", "loss.prior_best_of",
-    "loss.foot_skate_weight", "loss.foot_skate_contacts", "loss.foot_velocity_weight", "loss.ground_penetration_weight",
+    "loss.kl_warmup_steps", "loss.free_bits", "loss.prior_sample_fraction", "loss.foot_skate_weight",
+    "loss.foot_skate_contacts", "loss.foot_velocity_weight", "loss.ground_penetration_weight",
     "loss.near_keyframe_weight", "loss.near_keyframe_frames",
     # train: the paper keeps the learning rate constant and trains at max_length once the schedule reaches it
     "train.lr_decay_to", "train.lr_decay_from_step", "train.lr_decay_until_step", "train.length_after_schedule",
@@ -493,28 +474,61 @@ ABLATION_SWITCHES = ("model.discriminators", "model.lstm")
 CHOICES = {
     ("data", "dataset"): ("lafan1", "h36m", "bvh_folder"),  # stitchjax.data.datasets.REGISTRY has one entry each
     ("model", "matmul_dtype"): ("float32", "bfloat16"),
-    ("model", "variance_blend"): ("std", "var"),
     ("model", "posterior"): ("next_frame", "none"),
-    ("model", "gamma_schedule"): ("direction", "transition"),
-    ("model", "keyframe_velocity"): ("zero", "mean"),
     ("model", "update_anchor"): ("current", "interpolation"),
-    ("model", "activation"): ("elu", "relu", "gelu", "silu", "leaky_relu", "tanh"),
     ("loss", "foot_skate_contacts"): ("truth", "height", "height_either", "predicted"),
     ("train", "scan_remat"): ("none", "dots", "nothing", "taped"),  # accel.fast_rollout.SCAN_REMAT: one each
     ("train", "length_after_schedule"): ("max", "uniform"),  # schedule.transition_length
 }
 """The values a string field takes, checked by :func:`apply_overrides` before any work starts."""
 
-POSTERIOR_ONLY_FIELDS = (
-    ("model", "posterior_horizon"), ("loss", "free_bits"), ("loss", "prior_kl_weight"), ("loss", "prior_rollout"),
-    ("loss", "prior_sample_fraction"), ("loss", "prior_sample_reconstruction_weight"), ("loss", "prior_best_of"),
-)
+POSTERIOR_ONLY_FIELDS = (("loss", "free_bits"), ("loss", "prior_sample_fraction"))
 """Fields that act only through the posterior q (or on windows drawn from the prior instead of q): inert with
 model.posterior="none" (:func:`inert_fields`)."""
 
-FINE_TUNABLE_MODEL_FIELDS = ("keyframe_velocity", "noise_correlation", "posterior_horizon")
-"""Model fields a fine-tune (``--init-from``, stitchjax.train.resume) may change: they change what the generators are fed,
-not what their parameters mean."""
 
-RETIRED_FIELDS = {("train", "length_counts_keyframes"), ("train", "output_dir")}
-"""Removed fields (read nowhere): :func:`from_dict` ignores them in a saved config."""
+@dataclasses.dataclass(frozen=True)
+class Retired:
+    """A removed field: value, the one the code now always uses (what a saved config may hold); commit, the last
+    commit that had the field."""
+
+    value: typing.Any
+    commit: str
+
+
+_LAST = "656e31b"  # the last commit with the fields removed from the extensions and unused choices
+RETIRED_FIELDS = {
+    # read nowhere: any saved value is dropped
+    ("train", "length_counts_keyframes"): None,
+    ("train", "output_dir"): None,
+    # extensions that neither the release recipe nor an open study uses
+    ("model", "keyframe_velocity"): Retired("zero", _LAST),
+    ("model", "noise_correlation"): Retired(0.0, _LAST),  # at training; sampling keeps its own correlation
+    ("model", "posterior_horizon"): Retired(1, _LAST),
+    ("loss", "prior_kl_weight"): Retired(0.0, _LAST),
+    ("loss", "prior_rollout"): Retired(False, _LAST),
+    ("loss", "prior_sample_reconstruction_weight"): Retired(1.0, _LAST),
+    ("loss", "prior_best_of"): Retired(1, _LAST),
+    # choices no config or study set away from the value kept
+    ("model", "gamma_schedule"): Retired("direction", _LAST),
+    ("model", "activation"): Retired("elu", _LAST),
+    ("model", "z_every_layer"): Retired(True, _LAST),
+    ("model", "decoder_uses_lstm"): Retired(False, _LAST),
+    ("model", "time_to_target_input"): Retired(True, _LAST),
+    ("model", "variance_blend"): Retired("std", _LAST),
+    ("model", "stop_phase_gradient"): Retired(True, _LAST),
+    ("model", "disc_features"): Retired("positions+velocity", _LAST),
+    ("loss", "reduction"): Retired("sum", _LAST),
+    ("train", "checkpoint_every"): Retired(1, _LAST),
+    ("train", "max_to_keep"): Retired(3, _LAST),
+    ("phase", "window_seconds"): Retired(1.0, _LAST),
+    ("phase", "min_frequency"): Retired(0.25, _LAST),
+    ("phase", "max_frequency"): Retired(4.0, _LAST),
+    ("phase", "num_frequencies"): Retired(31, _LAST),
+    ("phase", "smoothing_seconds"): Retired(0.05, _LAST),
+    ("phase", "ridge"): Retired(1.0, _LAST),
+    ("phase", "learning_rate"): Retired(1e-3, _LAST),
+    ("phase", "include_reversed"): Retired(True, _LAST),
+}
+"""Removed fields, (section, field) -> :class:`Retired` (None: read nowhere, any value dropped). :func:`from_dict`
+drops one that a saved config holds at the value the code now always uses, and refuses any other value."""

@@ -15,7 +15,7 @@ import numpy as np
 _AXES = {"x": 0, "y": 1, "z": 2}
 
 
-def _xp(*arrays):
+def array_module(*arrays):
     """The array module for the inputs: jax.numpy if any of them is a JAX array or tracer.
 
     JAX is not imported here: data-only processes (BVH parsing, statistics) never pay for it, and an
@@ -35,7 +35,7 @@ def _split(q):
 
 def quat_identity(shape=(), like=None):
     """Identity quaternions of shape ``shape + (4,)`` (dtype and array module follow ``like``)."""
-    xp = _xp(like) if like is not None else np
+    xp = array_module(like) if like is not None else np
     dtype = like.dtype if like is not None else np.float64
     one = xp.ones(tuple(shape) + (1,), dtype=dtype)
     return xp.concatenate([one, xp.zeros(tuple(shape) + (3,), dtype=dtype)], axis=-1)
@@ -43,7 +43,7 @@ def quat_identity(shape=(), like=None):
 
 def quat_mul(a, b):
     """Hamilton product ``a * b`` (rotation ``b`` then ``a``). Shapes broadcast: (..., 4)."""
-    xp = _xp(a, b)
+    xp = array_module(a, b)
     aw, ax, ay, az = _split(a)
     bw, bx, by, bz = _split(b)
     return xp.stack(
@@ -59,26 +59,26 @@ def quat_mul(a, b):
 
 def quat_conjugate(q):
     """(w, -x, -y, -z): the inverse of a unit quaternion."""
-    xp = _xp(q)
+    xp = array_module(q)
     return xp.concatenate([q[..., :1], -q[..., 1:]], axis=-1)
 
 
 def quat_inverse(q, eps: float = 1e-12):
     """Inverse ``conj(q) / |q|²`` of any non-zero quaternion."""
-    xp = _xp(q)
+    xp = array_module(q)
     return quat_conjugate(q) / xp.maximum(xp.sum(q * q, axis=-1, keepdims=True), eps)
 
 
 def quat_normalize(q, eps: float = 1e-8):
     """Unit quaternion ``q / |q|``. Safe at zero: returns a finite value with finite gradients
     (the norm is computed as ``sqrt(|q|² + eps²)``, so a zero input maps to zero, not NaN)."""
-    xp = _xp(q)
+    xp = array_module(q)
     return q / xp.sqrt(xp.sum(q * q, axis=-1, keepdims=True) + eps * eps)
 
 
 def quat_rotate(q, v):
     """Rotate vectors ``v`` (..., 3) by unit quaternions ``q`` (..., 4)."""
-    xp = _xp(q, v)
+    xp = array_module(q, v)
     w = q[..., :1]
     u = q[..., 1:]
     t = 2.0 * xp.cross(u, v)
@@ -87,7 +87,7 @@ def quat_rotate(q, v):
 
 def quat_from_axis_angle(axis, angle):
     """Rotation of ``angle`` radians (...) about unit ``axis`` (..., 3)."""
-    xp = _xp(axis, angle)
+    xp = array_module(axis, angle)
     half = 0.5 * angle[..., None]
     return xp.concatenate([xp.cos(half), xp.sin(half) * axis], axis=-1)
 
@@ -116,7 +116,7 @@ def euler_to_quat(angles, order: str = "zyx"):
     Any order of three axes is accepted, including repeated ones such as ``"zxz"``.
     """
     order = _check_order(order)
-    xp = _xp(angles)
+    xp = array_module(angles)
     q0 = _axis_quat(xp, angles[..., 0], order[0])
     q1 = _axis_quat(xp, angles[..., 1], order[1])
     q2 = _axis_quat(xp, angles[..., 2], order[2])
@@ -125,7 +125,7 @@ def euler_to_quat(angles, order: str = "zyx"):
 
 def quat_to_matrix(q):
     """Unit quaternions (..., 4) to rotation matrices (..., 3, 3) acting on column vectors."""
-    xp = _xp(q)
+    xp = array_module(q)
     w, x, y, z = _split(q)
     xx, yy, zz = x * x, y * y, z * z
     xy, xz, yz = x * y, x * z, y * z
@@ -143,7 +143,7 @@ def matrix_to_quat(m):
 
     Uses the numerically best-conditioned of the four standard formulas per element.
     """
-    xp = _xp(m)
+    xp = array_module(m)
     m00, m01, m02 = m[..., 0, 0], m[..., 0, 1], m[..., 0, 2]
     m10, m11, m12 = m[..., 1, 0], m[..., 1, 1], m[..., 1, 2]
     m20, m21, m22 = m[..., 2, 0], m[..., 2, 1], m[..., 2, 2]
@@ -172,7 +172,7 @@ def quat_to_euler(q, order: str = "zyx"):
     Euler orders (first axis == last axis) it lies in [0, pi]. At gimbal lock the first angle is 0.
     """
     order = _check_order(order)
-    xp = _xp(q)
+    xp = array_module(q)
     i, j, k = (_AXES[c] for c in order)
     r = quat_to_matrix(q)
     if i != k:
@@ -209,7 +209,7 @@ def quat_slerp(q0, q1, t, eps: float = 1e-6):
     if the short way is wanted). Equal endpoints fall back to linear interpolation (finite values and
     gradients); opposite endpoints pass through a well-defined perpendicular quaternion.
     """
-    xp = _xp(q0, q1, t)
+    xp = array_module(q0, q1, t)
     t = xp.asarray(t)[..., None]
     dot = xp.clip(xp.sum(q0 * q1, axis=-1, keepdims=True), -1.0, 1.0)
     # Opposite endpoints: the arc is pi long, any perpendicular direction works; pick a fixed one.
@@ -232,7 +232,7 @@ def quat_continuity(q, axis: int = 0):
 
     Works on numpy (any float dtype) and on JAX arrays (via a cumulative product of sign flips).
     """
-    xp = _xp(q)
+    xp = array_module(q)
     q = xp.moveaxis(q, axis, 0)
     dots = xp.sum(q[1:] * q[:-1], axis=-1, keepdims=True)
     flips = xp.where(dots < 0, -1.0, 1.0).astype(q.dtype)
@@ -243,14 +243,14 @@ def quat_continuity(q, axis: int = 0):
 
 def quat_angle(a, b):
     """Angle in radians (in [0, pi]) of the rotation taking ``b`` to ``a`` (sign-invariant)."""
-    xp = _xp(a, b)
+    xp = array_module(a, b)
     dot = xp.abs(xp.sum(quat_normalize(a) * quat_normalize(b), axis=-1))
     return 2.0 * xp.arccos(xp.clip(dot, 0.0, 1.0))
 
 
 def quat_between(u, v, eps: float = 1e-12):
     """Shortest-arc unit quaternion rotating direction ``u`` (..., 3) onto direction ``v``."""
-    xp = _xp(u, v)
+    xp = array_module(u, v)
     w = xp.sqrt(xp.sum(u * u, axis=-1) * xp.sum(v * v, axis=-1)) + xp.sum(u * v, axis=-1)
     q = xp.concatenate([w[..., None], xp.cross(u, v)], axis=-1)
     return quat_normalize(q, eps)
@@ -258,7 +258,7 @@ def quat_between(u, v, eps: float = 1e-12):
 
 def expmap_to_quat(e, eps: float = 1e-8):
     """Rotation vectors (axis * angle in radians, ..., 3) to unit quaternions. Finite at zero."""
-    xp = _xp(e)
+    xp = array_module(e)
     sq = xp.sum(e * e, axis=-1, keepdims=True)
     small = sq < eps
     angle = xp.sqrt(xp.where(small, 1.0, sq))
@@ -271,7 +271,7 @@ def expmap_to_quat(e, eps: float = 1e-8):
 
 def quat_to_expmap(q, eps: float = 1e-8):
     """Unit quaternions to rotation vectors (..., 3) with angle in [0, pi]. Finite at identity."""
-    xp = _xp(q)
+    xp = array_module(q)
     q = xp.where(q[..., :1] < 0, -q, q)
     v = q[..., 1:]
     sq = xp.sum(v * v, axis=-1, keepdims=True)

@@ -124,7 +124,7 @@ def forward_kinematics(local_rotations, local_positions, parents):
     differentiable), with NumPy inputs joint by joint into preallocated arrays.
     """
     parents = tuple(parents)
-    xp = R._xp(local_rotations, local_positions)
+    xp = R.array_module(local_rotations, local_positions)
     if xp is np:
         return _forward_kinematics_numpy(local_rotations, local_positions, parents)
     return _forward_kinematics_jax(local_rotations, local_positions, parents)
@@ -213,7 +213,7 @@ def inverse_kinematics(global_rotations, global_positions, parents):
       (local_rotations (..., J, 4), local_positions (..., J, 3)).
     """
     parents = tuple(parents)
-    xp = R._xp(global_rotations, global_positions)
+    xp = R.array_module(global_rotations, global_positions)
     par = np.array([max(p, 0) for p in parents])
     prot = global_rotations[..., par, :]
     pinv = R.quat_conjugate(prot)

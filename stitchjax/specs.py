@@ -1,4 +1,4 @@
-"""Small frozen specs resolved once from the ``Config`` where a train step or a loaded model starts.
+"""Small frozen specs resolved once from the ``Config`` where training or a loaded model starts.
 
 Below that point functions take the spec they read, not the whole ``Config``:
 
@@ -6,11 +6,15 @@ Below that point functions take the spec they read, not the whole ``Config``:
   read once from the dataset entry (``stitchjax.data.datasets``) and ``config.data``;
 - :class:`LossSpec`: the loss section (the weights of paper Eq. 9 and the extensions' switches) and the
   model switches that decide which terms exist (posterior, directions, discriminators);
-- :class:`TrainSpec`: what one train step's objective reads: the two above and the rollout's
-  ``rollout.RolloutSpec`` (L's scan, K, the gamma schedule, the generator's sizes and switches).
+- :class:`TrainSpec`: what training reads below ``train.loop.train``: the two above, the rollout's
+  ``rollout.RolloutSpec`` (L's scan, K, the generator's sizes and switches), the networks to initialise
+  (``networks.ModelSpec``), the optimiser, schedule and run settings (``config.train``), the phase network
+  (``config.phase``) and how a training batch is cut (window, random starts).
 
 Every spec is a frozen, hashable dataclass, so a jitted function may close over it or take it as a static
-argument. Built by :func:`skeleton_spec`, :func:`loss_spec` and :func:`train_spec`.
+argument. Built by :func:`train_spec` (the one builder that reads the whole ``Config``) from
+:func:`skeleton_spec` and :func:`loss_spec` (each of the config sections it reads); a loaded model builds
+its own (``sample.trained_model``).
 """
 from __future__ import annotations
 
@@ -68,18 +72,26 @@ class LossSpec:
 
 @dataclasses.dataclass(frozen=True)
 class TrainSpec:
-    """What one train step's objective reads: rollout, the ``rollout.RolloutSpec`` (the model);
-    loss: :class:`LossSpec`; skeleton: :class:`SkeletonSpec`."""
+    """What training reads. The objective's: rollout, the ``rollout.RolloutSpec`` (the model, on accel's
+    layers); loss: :class:`LossSpec`; skeleton: :class:`SkeletonSpec`. The run's: model, the
+    ``networks.ModelSpec`` the parameters are initialised from; train: ``config.train`` (optimiser, length
+    schedule, checkpoints, validation, fast paths); phase: ``config.phase`` (the phase network and its
+    pretraining); window: frames of a training window (``data.window``); random_starts:
+    ``data.random_starts`` (a batch's windows start at any frame)."""
 
     rollout: rollout_lib.RolloutSpec
     loss: LossSpec
     skeleton: SkeletonSpec
+    model: networks.ModelSpec
+    train: Any
+    phase: Any
+    window: int
+    random_starts: bool
 
 
-def skeleton_spec(config) -> SkeletonSpec:
-    """The :class:`SkeletonSpec` of ``config.data.dataset``: feet and up axis from its registry entry,
-    parents and scales from ``config.data``. ValueError for an unknown dataset name."""
-    data = config.data
+def skeleton_spec(data) -> SkeletonSpec:
+    """The :class:`SkeletonSpec` of a config's ``data`` section: feet and up axis from the registry entry of
+    ``data.dataset``, parents and scales from ``data``. ValueError for an unknown dataset name."""
     entry = datasets.get(data.dataset)
     up = conform.parse_axis(entry.up_axis)
     up_index = int(abs(up).argmax())
@@ -89,15 +101,18 @@ def skeleton_spec(config) -> SkeletonSpec:
                         position_scale=data.position_scale, velocity_scale=data.velocity_scale)
 
 
-def loss_spec(config) -> LossSpec:
-    """The :class:`LossSpec` of `config` (``config.loss`` and the model switches the objective reads)."""
-    m = config.model
-    return LossSpec(loss=config.loss, posterior=m.posterior, bidirectional=m.bidirectional,
-                    discriminators=networks.discriminator_spec(config) if m.discriminators else None)
+def loss_spec(model, loss, num_joints: int) -> LossSpec:
+    """The :class:`LossSpec` of a config's ``loss`` section and the switches of its ``model`` section the
+    objective reads, for a skeleton of ``num_joints`` joints."""
+    discriminators = networks.discriminator_spec(model, num_joints) if model.discriminators else None
+    return LossSpec(loss=loss, posterior=model.posterior, bidirectional=model.bidirectional,
+                    discriminators=discriminators)
 
 
 def train_spec(config) -> TrainSpec:
-    """The :class:`TrainSpec` of `config`: built once where the train step is made. Its generator runs on
+    """The :class:`TrainSpec` of `config`: built once where training starts. Its generator runs on
     ``accel.matmul``'s layers (the ``model.matmul_dtype`` matmul, the ELU's derivative from its output)."""
-    return TrainSpec(rollout=accel_matmul.with_layers(rollout_lib.rollout_spec(config)), loss=loss_spec(config),
-                     skeleton=skeleton_spec(config))
+    return TrainSpec(rollout=accel_matmul.with_layers(rollout_lib.rollout_spec(config)),
+                     loss=loss_spec(config.model, config.loss, config.data.num_joints),
+                     skeleton=skeleton_spec(config.data), model=networks.model_spec(config), train=config.train,
+                     phase=config.phase, window=config.data.window, random_starts=config.data.random_starts)

@@ -38,12 +38,12 @@ def save_tiny_checkpoint(workdir, seed: int = 0) -> pathlib.Path:
     """A freshly initialised `tiny` model written as a training run writes it (checkpoints/0)."""
     import jax
 
-    from stitchjax import checkpoints
+    from stitchjax import checkpoints, specs
     from stitchjax.train import loop as train
     from stitchjax import config as config_lib
 
     config = config_lib.load_config("tiny")
-    state = train.create_train_state(config, jax.random.PRNGKey(seed))
+    state = train.create_train_state(specs.train_spec(config), jax.random.PRNGKey(seed))
     manager = checkpoints.open_manager(workdir, async_save=False)
     checkpoints.save(manager, 0, state, config_lib.to_dict(config), {"config_name": "tiny"})
     checkpoints.close(manager)

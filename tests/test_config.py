@@ -1,5 +1,6 @@
-"""Config: paper values, overrides parsed by field type, JSON round trip, named configs."""
+"""Config: paper values, overrides parsed by field type, JSON round trip, named configs, removed fields."""
 import dataclasses
+import json
 import pathlib
 
 import pytest
@@ -22,17 +23,18 @@ def test_reference_config_has_paper_values():
 def test_overrides_parse_by_type():
     c = C.apply_overrides(C.Config(), [
         "model.latent_dim=8", "loss.kl_weight=0.25", "model.bidirectional=false",
-        "model.decoder_widths=16,32", "model.activation=relu", "name=tiny"])
+        "model.decoder_widths=16,32", "model.update_anchor=interpolation", "name=tiny"])
     assert c.model.latent_dim == 8 and isinstance(c.model.latent_dim, int)
     assert c.loss.kl_weight == 0.25 and c.model.bidirectional is False
-    assert c.model.decoder_widths == (16, 32) and c.model.activation == "relu" and c.name == "tiny"
+    assert c.model.decoder_widths == (16, 32) and c.model.update_anchor == "interpolation" and c.name == "tiny"
     assert C.Config().model.latent_dim != 8  # the original is unchanged (frozen dataclasses)
 
 
 @pytest.mark.parametrize("bad, words", [
     ("model.no_such_field=1", "no field"), ("nosection.x=1", "unknown section"),
     ("model.latent_dim=abc", "latent_dim"), ("model.bidirectional=maybe", "boolean"), ("model.latent_dim", "="),
-    ("model.matmul_dtype=float16", "one of float32, bfloat16"), ("model.variance_blend=both", "one of std, var")])
+    ("model.matmul_dtype=float16", "one of float32, bfloat16"), ("model.posterior=both", "one of next_frame, none"),
+    ("model.noise_correlation=0.5", "model.noise_correlation was removed .*656e31b")])
 def test_bad_overrides_raise_clear_errors(bad, words):
     with pytest.raises(C.ConfigError, match=words):
         C.apply_overrides(C.Config(), [bad])
@@ -43,15 +45,14 @@ def test_posterior_only_fields_are_named_inert_and_refused_as_overrides_with_pos
     assert C.inert_fields(cpu) == ()  # with a posterior every field acts
     none = C.apply_overrides(cpu, ["model.posterior=none"])
     assert set(C.inert_fields(none)) == {"loss.free_bits", "loss.prior_sample_fraction"}  # the config's own values
-    for field, value in [("model.posterior_horizon", 4), ("loss.prior_kl_weight", 0.5), ("loss.prior_rollout", 1)]:
-        assert field in C.inert_fields(C.apply_overrides(none, [f"{field}={value}"]))
-    overrides = ["model.posterior=none", "model.posterior_horizon=4", "loss.free_bits=2"]
-    with pytest.raises(C.ConfigError, match="model.posterior_horizon, loss.free_bits change nothing"):
-        C.check_overrides_take_effect(C.apply_overrides(cpu, overrides), overrides)
-    C.check_overrides_take_effect(C.apply_overrides(cpu, overrides[1:]), overrides[1:])  # with the posterior: fine
+    overrides = ["model.posterior=none", "loss.prior_sample_fraction=0.25", "loss.free_bits=2"]
+    with pytest.raises(C.ConfigError, match="loss.prior_sample_fraction, loss.free_bits change nothing"):
+        C.check_overrides_take_effect(C.inert_fields(C.apply_overrides(cpu, overrides)), overrides)
+    with_posterior = C.apply_overrides(cpu, overrides[1:])
+    C.check_overrides_take_effect(C.inert_fields(with_posterior), overrides[1:])  # with the posterior: fine
     # the same fields at their defaults, or fields that act on "none" too (the KL warm-up), are not refused
     fine = ["model.posterior=none", "loss.free_bits=0", "loss.kl_warmup_steps=100"]
-    C.check_overrides_take_effect(C.apply_overrides(cpu, fine), fine)
+    C.check_overrides_take_effect(C.inert_fields(C.apply_overrides(cpu, fine)), fine)
     assert set(C.POSTERIOR_ONLY_FIELDS) <= {(s, f.name) for s in ("model", "loss")
                                             for f in dataclasses.fields(getattr(C.Config(), s))}
 
@@ -59,8 +60,8 @@ def test_posterior_only_fields_are_named_inert_and_refused_as_overrides_with_pos
 def test_dict_and_json_round_trip(tmp_path):
     c = C.apply_overrides(C.load_config("lafan1"), ["model.encoder_widths=8,8,4", "train.batch_size=4"])
     assert C.from_dict(C.to_dict(c)) == c
-    C.save_config(c, tmp_path / "config.json")
-    assert C.read_config(tmp_path / "config.json") == c
+    (tmp_path / "config.json").write_text(json.dumps(C.to_dict(c)))
+    assert C.from_dict(json.loads((tmp_path / "config.json").read_text())) == c
     with pytest.raises(C.ConfigError, match="unknown field"):
         C.from_dict({"model": {"bogus": 1}})
 
@@ -86,15 +87,11 @@ def test_every_field_documents_its_choice():
 
 
 def test_override_choices_match_what_the_networks_accept():
+    from stitchjax.accel import fast_rollout
     from stitchjax.accel import matmul as accel_matmul
-    from stitchjax.model import layers, networks
 
     assert set(C.CHOICES[("model", "matmul_dtype")]) == set(accel_matmul.MATMUL_DTYPES)
-    assert set(C.CHOICES[("model", "activation")]) == set(layers._ACTIVATIONS)
-    for mode in C.CHOICES[("model", "variance_blend")]:
-        networks.blend_gaussians(0.0, 0.0, 1.0, 0.0, 0.5, mode)  # accepted
-    with pytest.raises(ValueError):
-        networks.blend_gaussians(0.0, 0.0, 1.0, 0.0, 0.5, "both")
+    assert set(C.CHOICES[("train", "scan_remat")]) == set(fast_rollout.SCAN_REMAT)
 
 
 def test_the_paper_configs_turn_no_extension_on_and_every_extension_is_a_field():
@@ -115,15 +112,39 @@ def test_the_paper_configs_turn_no_extension_on_and_every_extension_is_a_field()
 
 def test_a_saved_config_lacking_a_field_outside_the_extensions_is_refused_naming_it():
     saved = C.to_dict(C.load_config("tiny"))
-    for name in ("noise_correlation", "posterior_horizon"):  # extensions: their default is the paper's (off)
-        del saved["model"][name]
+    del saved["model"]["update_anchor"]  # an extension: its default is the paper's (off)
     del saved["data"]["mirror"]
     for name in ("discriminators", "lstm"):  # Appendix D's switches: a run saved before them had both parts
         del saved["model"][name]
     assert C.from_dict(saved) == C.load_config("tiny")
-    del saved["model"]["posterior"], saved["phase"]["include_reversed"]
-    with pytest.raises(C.ConfigError, match="lacks model.posterior, phase.include_reversed: add them"):
+    del saved["model"]["posterior"], saved["phase"]["steps"]
+    with pytest.raises(C.ConfigError, match="lacks model.posterior, phase.steps: add them"):
         C.from_dict(saved)
+
+
+def test_a_removed_field_loads_at_the_value_kept_and_is_refused_at_any_other_naming_its_last_commit():
+    """A config saved before a field was removed (the shipped model's among them) loads when the field holds
+    the value the code now always uses; any other value is refused, naming the field and the last commit with
+    it, never silently trained or sampled another way."""
+    shipped = json.loads((pathlib.Path(C.__file__).parent / "pretrained" / "lafan1_cpu_release" /
+                          "model.json").read_text())["config"]
+    retired = {(s, f) for s, fields in shipped.items() if isinstance(fields, dict) for f in fields
+               if (s, f) in C.RETIRED_FIELDS}
+    assert ("model", "noise_correlation") in retired and ("phase", "include_reversed") in retired
+    config = C.from_dict(shipped)
+    assert config.name == "lafan1_cpu_release" and config.loss.foot_skate_weight == 128.0
+    for section, field in sorted(C.RETIRED_FIELDS):
+        retired_field = C.RETIRED_FIELDS[(section, field)]
+        assert not hasattr(getattr(config, section), field)
+        if retired_field is None:  # read nowhere: dropped at any value
+            continue
+        saved = C.to_dict(config)
+        saved[section][field] = retired_field.value
+        assert C.from_dict(saved) == config
+        other = {bool: lambda v: not v, str: lambda v: v + "_other"}.get(type(retired_field.value), lambda v: v + 7)
+        saved[section][field] = other(retired_field.value)
+        with pytest.raises(C.RetiredFieldError, match=f"{section}.{field}=.*commit {retired_field.commit}"):
+            C.from_dict(saved)
 
 
 def test_the_validation_takes_of_every_config_are_training_files_never_test_files(shared_data):

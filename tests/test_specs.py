@@ -46,12 +46,12 @@ def test_no_module_imports_from_the_package_init():
 def test_losses_take_the_skeleton_from_a_spec_not_from_the_dataset_registry():
     for module in (losses, objective):
         assert not {"datasets", "conform", "stitchjax.data.datasets", "stitchjax.data.conform"} & _imported_modules(module)
-    skeleton = specs.skeleton_spec(C.Config())
+    skeleton = specs.skeleton_spec(C.Config().data)
     assert skeleton.feet == tuple(LAFAN1_FEET)
     assert (skeleton.up_axis, skeleton.up_index, skeleton.up_sign) == ("+y", 1, 1)
     assert skeleton.parents == tuple(C.Config().data.parents) and skeleton.num_joints == 22
     assert (skeleton.position_scale, skeleton.velocity_scale) == (100.0, 10.0)
-    folder = specs.skeleton_spec(C.apply_overrides(C.Config(), ["data.dataset=bvh_folder"]))
+    folder = specs.skeleton_spec(C.apply_overrides(C.Config(), ["data.dataset=bvh_folder"]).data)
     assert folder.feet is None  # read per file: the foot terms refuse it, naming the field to unset
     with pytest.raises(ValueError, match="loss.foot_skate_weight"):
         objective._fixed_feet(folder, "loss.foot_skate_weight")
@@ -66,8 +66,8 @@ def test_specs_are_hashable_and_hold_only_what_their_readers_read():
     assert rollout.rollout_spec(bigger_batch) == rollout.rollout_spec(config)
     assert rollout.rollout_spec(C.apply_overrides(config, ["model.stitch_buffer=3"])) != rollout.rollout_spec(config)
     # the training step's generator runs on accel's layers (stitchjax.accel.matmul)
-    assert spec.rollout.generator == dataclasses.replace(networks.generator_spec(config), layers=accel_matmul.LAYERS)
-    assert spec.loss.discriminators == networks.discriminator_spec(config)
+    assert spec.rollout.generator == dataclasses.replace(networks.model_spec(config).generator, layers=accel_matmul.LAYERS)
+    assert spec.loss.discriminators == networks.model_spec(config).discriminators
     assert (spec.loss.discriminators.short_window, spec.loss.discriminators.long_window) == (
         config.model.disc_short_window, config.model.disc_long_window)
 

@@ -22,7 +22,7 @@ import torch_twin  # noqa: E402
 from stitchjax import config as config_lib  # noqa: E402
 from stitchjax.data import features, phase  # noqa: E402
 from stitchjax.model import batch as batch_lib
-from stitchjax.model import networks, rollout
+from stitchjax.model import networks
 
 TINY = ["model.encoder_widths=32,32,16", "model.lstm_size=32", "model.latent_dim=8", "model.decoder_widths=32,32",
         "model.gating_widths=16,16", "model.disc_widths=32,16", "phase.hidden_dim=16", "data.window=14",
@@ -40,11 +40,8 @@ CASES = {
     "lafan1_cpu": ("lafan1_cpu", CPU_TWIN, 100),
     "lafan1_cpu_posterior_none": ("lafan1_cpu", CPU_TWIN + ["model.posterior=none"], 100),
     "plain_decoder_foot_skate": ("lafan1", ["model.phase_modulation=false", "loss.foot_skate_weight=0.5",
-                                            "loss.prior_kl_weight=0.3", "loss.free_bits=0.5",
-                                            "loss.reduction=mean"], 0),
-    "legacy_model": ("lafan1", ["model.z_every_layer=false", "model.decoder_uses_lstm=true",
-                                "model.gamma_schedule=transition", "model.variance_blend=var",
-                                "model.time_to_target_input=false", "model.bidirectional_aligning=false"], 0),
+                                            "loss.free_bits=0.5"], 0),
+    "no_aligning": ("lafan1", ["model.bidirectional_aligning=false"], 0),
 }
 RTOL = 5e-6  # measured: at most 4.4e-7 relative on any term of any case
 
@@ -54,7 +51,9 @@ def make_case(name, extra=()):
     base, overrides, step = CASES[name]
     config = config_lib.apply_overrides(config_lib.load_config(base), TINY + overrides + list(extra))
     params = jax.jit(lambda key: networks.init_params(networks.model_spec(config), key))(jax.random.PRNGKey(0))
-    phase_params = phase.init_phase_params(jax.random.PRNGKey(1), features.state_dim(config), config)
+    phase_params = phase.init_phase_params(jax.random.PRNGKey(1),
+                                           features.state_dim(config.data.num_joints, config.data.num_contacts),
+                                           config.phase)
     data = run_all.synthetic_dataset(config, 3, 14)
     return config, params, phase_params, data
 
@@ -120,19 +119,17 @@ def test_twin_next_frame_states_match_stitchjax(tiny):
     n = torch_twin.num_steps(config, 12)
     for length in (12, 7, 1):
         expected = batch_lib.next_frame_states({k: jnp.asarray(v) for k, v in data.items()}, length, n,
-                                               rollout.rollout_spec(config))
+                                               config.data.velocity_scale)
         got = twin.next_frame_states(batch, length)
         steps = max(torch_twin.schedule(config, length)[2:])
         for name in ("forward", "backward"):
-            assert got[name].shape == (3, steps, features.state_dim(config))
+            assert got[name].shape == (3, steps, features.state_dim(config.data.num_joints, config.data.num_contacts))
             np.testing.assert_allclose(got[name].numpy(), np.asarray(expected[name])[:, :steps], rtol=1e-6,
                                        atol=1e-6, err_msg=f"{name}, L={length}")
 
 
-@pytest.mark.parametrize("override", ["model.matmul_dtype=bfloat16", "loss.prior_rollout=true",
-                                      "loss.prior_sample_fraction=0.25", "train.lr_decay_to=0.5",
-                                      "loss.foot_skate_contacts=height", "loss.prior_best_of=2",
-                                      "model.noise_correlation=0.5", "model.posterior_horizon=4"])
+@pytest.mark.parametrize("override", ["model.matmul_dtype=bfloat16", "loss.prior_sample_fraction=0.25",
+                                      "train.lr_decay_to=0.5", "loss.foot_skate_contacts=height"])
 def test_twin_refuses_what_it_does_not_mirror(override):
     config = config_lib.apply_overrides(config_lib.load_config("lafan1"), TINY + [override])
     with pytest.raises(torch_twin.UnsupportedConfig, match=override.split("=")[0]):

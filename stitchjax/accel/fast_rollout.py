@@ -20,14 +20,10 @@ import jax
 
 from stitchjax.accel import probes as probes_lib
 from stitchjax.accel import scan_gradients
-from stitchjax.accel import tape as tape_lib
-from stitchjax.config import CHOICES
 from stitchjax.model import batch as batch_lib
-from stitchjax.model.rollout import num_steps, rollout
+from stitchjax.model.rollout import StepHook, num_steps, rollout
 
 __all__ = ["SCAN_REMAT", "training_rollout_batch", "fast_runner"]
-
-_ACTIVATION_NAMES = CHOICES[("model", "activation")]
 
 # train.scan_remat -> the jax.checkpoint policy of the rollout's scan body (None: none, every intermediate kept);
 # "taped" checkpoints nothing either: the scan it differentiates replays a recorded tape (fast_runner).
@@ -51,11 +47,11 @@ def fast_runner(generators, inputs, constants, spec, max_length: int, *, after_s
     """A runner of ``batch.rollout_batch`` (the arguments of ``batch.vmapped_rollout``) with the fast paths.
 
     after_scan: the generators' kernel gradients formed after the scan (``scan_gradients.gradients_after_scan``);
-    scan_remat: a ``train.scan_remat`` value ("taped" needs after_scan and a tapeable ``model.activation``).
+    scan_remat: a ``train.scan_remat`` value ("taped" needs after_scan).
     Returns ``vmapped_rollout``'s result, with the same values and gradients.
     """
     taped = scan_remat == "taped"
-    _check_taped(spec, after_scan, taped)
+    _check_taped(after_scan, taped)
     policy = SCAN_REMAT[scan_remat]
     if not after_scan:
         return batch_lib.vmapped_rollout(generators, inputs, constants, spec, max_length, policy)
@@ -65,15 +61,11 @@ def fast_runner(generators, inputs, constants, spec, max_length: int, *, after_s
     return run_probed(generators, inputs, constants)
 
 
-def _check_taped(spec, after_scan: bool, taped: bool) -> None:
+def _check_taped(after_scan: bool, taped: bool) -> None:
     """ValueError for a ``train.scan_remat=taped`` that cannot run (see :func:`fast_runner`)."""
     if taped and not after_scan:
         raise ValueError("train.scan_remat=taped needs train.weight_gradients_after_scan=true (the tape is "
                          "recorded by the after-scan gradients' forward pass)")
-    if taped and spec.generator.activation not in tape_lib.DERIVATIVES:
-        raise ValueError(f"train.scan_remat=taped cannot tape model.activation={spec.generator.activation!r}: use "
-                         f"one of {', '.join(a for a in tape_lib.DERIVATIVES if a in _ACTIVATION_NAMES)}, "
-                         "or another train.scan_remat")
 
 
 def _probed_run(generators, inputs, constants, probes=None, tape=None, *, spec, max_length: int,
@@ -87,9 +79,10 @@ def _probed_run(generators, inputs, constants, probes=None, tape=None, *, spec, 
 
     def one(s, t, o, k, g, u, p, taped):
         taped = "record" if record else taped
-        hook = None if p is None and taped is None else probes_lib.RecordingHook(p, taped)
-        return rollout(generators, phase_params, s, t, o, k, spec, length, max_length, ground_truth=g,
-                       use_prior=u, hook=hook, checkpoint_policy=checkpoint_policy)
+        hook = (StepHook(checkpoint_policy) if p is None and taped is None
+                else probes_lib.RecordingHook(p, taped, checkpoint_policy))
+        return rollout(generators, phase_params, (s, t, o), k, spec, length, max_length,
+                       latent=batch_lib.latent_inputs(g, u), hook=hook)
 
     # Probes and taped values in, recorded values out stay step-major (steps, B, ...), the layout the
     # batched scan keeps them in, so the scan and the after-scan kernel gradients read them without a

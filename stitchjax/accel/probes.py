@@ -137,9 +137,11 @@ class RecordingHook:
     kernel-matmul inputs and the values the generator steps tape (``stitchjax.accel.tape``), each distinct
     array recorded once; or {"tape": ..., "output_tape": ...} as recorded, to replay (``train.scan_remat=
     "taped"``: the steps' nonlinearities and matmuls are not recomputed, their derivatives come from the tape).
+    checkpoint_policy: the scan body's ``jax.checkpoint`` policy (``rollout.StepHook``'s).
     """
 
-    def __init__(self, probes=None, tape=None):
+    def __init__(self, probes=None, tape=None, checkpoint_policy=None):
+        self.checkpoint_policy = checkpoint_policy
         self.record = recorded_collections(probes, tape)
         self.probes = probes
         self.replay = None if tape is None or isinstance(tape, str) else tape

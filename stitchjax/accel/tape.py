@@ -33,13 +33,11 @@ TAPE = "tape"  # taped values replayed as constants
 OUTPUT_TAPE = "output_tape"  # taped values that take a matmul's output; their cotangent is its gradient
 
 # The gradient of y = f(x) with respect to x from the output y and the output's gradient dy, for every kind
-# of value a tape point holds (each Jacobian is symmetric, so this is also the tangent). An activation
-# missing here (gelu, silu) cannot be taped.
+# of value a tape point holds (each Jacobian is symmetric, so this is also the tangent): the layers' functions
+# (``layers.LAYER_FUNCTIONS``) and the LSTM's gates.
 DERIVATIVES = {
     "identity": lambda y, dy: dy,
     "elu": lambda y, dy: dy * jnp.where(y > 0, 1, y + 1).astype(y.dtype),
-    "relu": lambda y, dy: jnp.where(y > 0, dy, 0).astype(dy.dtype),
-    "leaky_relu": lambda y, dy: jnp.where(y > 0, dy, 0.2 * dy),
     "sigmoid": lambda y, dy: dy * y * (1 - y),
     "tanh": lambda y, dy: dy * (1 - y * y),
     "softmax": lambda y, dy: y * (dy - jnp.sum(y * dy, axis=-1, keepdims=True)),

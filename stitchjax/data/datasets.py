@@ -124,19 +124,20 @@ def skeleton_facts(data_dir, data) -> dict | None:
     return None if entry is None else entry.skeleton_facts(data_dir, data)
 
 
-def load_training_data(config, data_dir):
+def load_training_data(data, data_dir):
     """(dataset dict of (N, T, ...) numpy arrays from ``features.prepare_dataset``, Stats) of the training
-    windows of ``config.data.dataset``; data_dir None = the dataset's default (LAFAN1: the bundled sample).
+    windows of ``data.dataset`` (``data``: the config's data section); data_dir None = the dataset's default
+    (LAFAN1: the bundled sample).
 
     With any of data.validation_files, data.extra_train_dirs, data.random_starts, data.mirror set, the
     windows come from :func:`training_set` (random starts: T = window + offset - 1 frames per carried window,
     plus ``features.RANDOM_START_KEYS``). Raises ValueError saying what to fix (a validation take that is a
     test file, an extra file that is a test, validation or main take, an asymmetric skeleton to mirror)."""
-    entry = get(config.data.dataset)
-    if uses_training_set_options(config.data):
-        return training_set(entry.data_dir(data_dir), config)
-    windows, stats = entry.training_windows(entry.data_dir(data_dir), config.data)
-    dataset = features.prepare_dataset(windows, stats, config)
+    entry = get(data.dataset)
+    if uses_training_set_options(data):
+        return training_set(entry.data_dir(data_dir), data)
+    windows, stats = entry.training_windows(entry.data_dir(data_dir), data)
+    dataset = features.prepare_dataset(windows, stats, data)
     return {name: np.asarray(x) for name, x in dataset.items()}, stats
 
 
@@ -307,17 +308,16 @@ def _with_mirror_images(arrays: tuple, sources: list, counts, facing, names, fee
     return arrays, sources, counts, facing
 
 
-def training_set(data_dir, config):
+def training_set(data_dir, data):
     """(dataset dict, Stats) of the training set with the data.* options (see :func:`load_training_data`).
 
     The main training files less ``data.validation_files``, then the files of ``data.extra_train_dirs``
     (conformed to the main skeleton by :func:`_conformed`), cut into windows as the benchmark does
-    (window / offset of config.data, centred and faced at frame 9). data.random_starts: each window carries
+    (window / offset of ``data``, centred and faced at frame 9). data.random_starts: each window carries
     offset - 1 more frames and the arrays "facing" and "start_counts", so the train step can start a window at
     any frame (features.random_start_batch). data.mirror: every window is followed by its left/right mirror
     image (mirror.mirror_arrays). Stats: of every window's first ``window`` frames, mirrored ones included.
     """
-    data = config.data
     folder = pathlib.Path(data_dir).expanduser()
     train, _ = _main_files(folder, data)
     held_out = set(validation_files(folder, data))
@@ -339,7 +339,7 @@ def training_set(data_dir, config):
             (rotations, positions, contacts), sources, counts, facing, names, feet, forward)
     windows = Windows(rotations, positions, contacts, Skeleton(names, parents, skeleton.offsets), float(data.fps),
                       sources)
-    dataset = features.prepare_dataset(windows, None, config)
+    dataset = features.prepare_dataset(windows, None, data)
     stats = windows_lib.window_statistics(windows, dataset["global_positions"][:, :data.window])
     if data.random_starts:
         dataset["facing"] = facing.astype(np.float32)

@@ -34,21 +34,14 @@ class DatasetError(ValueError):
     """Windows / stats / config do not fit together; the message says what to change."""
 
 
-def _xp(*arrays):
-    return jnp if any(isinstance(a, jax.Array) for a in arrays) else np
-
-
-def state_dim(config_or_num_joints, num_contacts: int = 4) -> int:
-    """S = J*4 + 3 + C from a Config (uses config.data) or a joint count."""
-    data = getattr(config_or_num_joints, "data", None)
-    if data is not None:
-        return data.num_joints * 4 + 3 + data.num_contacts
-    return int(config_or_num_joints) * 4 + 3 + num_contacts
+def state_dim(num_joints: int, num_contacts: int = 4) -> int:
+    """S = J*4 + 3 + C of J joints and C contact channels."""
+    return int(num_joints) * 4 + 3 + int(num_contacts)
 
 
 def state_vector(rotations, root_velocity, contacts):
     """(..., J, 4) local quats, (..., 3) scaled root velocity, (..., C) contacts -> (..., J*4 + 3 + C)."""
-    xp = _xp(rotations, root_velocity, contacts)
+    xp = R.array_module(rotations, root_velocity, contacts)
     flat = rotations.reshape(rotations.shape[:-2] + (rotations.shape[-2] * 4,))
     return xp.concatenate([flat, root_velocity, contacts], axis=-1)
 
@@ -62,7 +55,7 @@ def split_state(state, num_joints: int):
 
 def root_velocities(root_positions, velocity_scale: float):
     """Scaled root velocity of every frame: (..., T, 3) positions -> (..., T, 3); frame 0 gets 0."""
-    xp = _xp(root_positions)
+    xp = R.array_module(root_positions)
     diff = root_positions[..., 1:, :] - root_positions[..., :-1, :]
     first = xp.zeros_like(root_positions[..., :1, :])
     return xp.concatenate([first, diff], axis=-2) / velocity_scale
@@ -70,7 +63,7 @@ def root_velocities(root_positions, velocity_scale: float):
 
 def offset_features(rotations, root_position, target_rotations, target_root_position, position_scale: float):
     """Offset encoder input (..., J*4 + 3): target - current local quats, target - current root / scale."""
-    xp = _xp(rotations, root_position, target_rotations, target_root_position)
+    xp = R.array_module(rotations, root_position, target_rotations, target_root_position)
     dq = target_rotations - rotations
     dq = dq.reshape(dq.shape[:-2] + (dq.shape[-2] * 4,))
     return xp.concatenate([dq, (target_root_position - root_position) / position_scale], axis=-1)
@@ -81,7 +74,7 @@ def local_positions(offsets, root_positions):
 
     Broadcasts: offsets (J, 3) with root_positions (T, 3) gives (T, J, 3).
     """
-    xp = _xp(offsets, root_positions)
+    xp = R.array_module(offsets, root_positions)
     shape = np.broadcast_shapes(offsets.shape[:-2], root_positions.shape[:-1])
     offsets = xp.broadcast_to(offsets, shape + offsets.shape[-2:])
     root = xp.broadcast_to(root_positions[..., None, :], shape + (1, 3))
@@ -91,11 +84,11 @@ def local_positions(offsets, root_positions):
 def integrate_root(start_position, velocities, velocity_scale: float):
     """Root positions (..., T, 3) from a start position (..., 3) and scaled velocities (..., T, 3) of
     frames 1..T (p_t = p_{t-1} + v_t * scale)."""
-    xp = _xp(start_position, velocities)
+    xp = R.array_module(start_position, velocities)
     return start_position[..., None, :] + xp.cumsum(velocities, axis=-2) * velocity_scale
 
 
-def prepare_dataset(windows, stats, config, phase_labels=None) -> dict:
+def prepare_dataset(windows, stats, data, phase_labels=None) -> dict:
     """Training arrays from a :class:`stitchjax.data.windows.Windows` batch (float32 numpy, leading (N, T)).
 
     Returns:
@@ -104,23 +97,24 @@ def prepare_dataset(windows, stats, config, phase_labels=None) -> dict:
       "phase" (N, T, 2C) phase labels (``phase.phase_labels`` per window unless given);
       "offsets" (N, 1, J, 3) bone offsets of each window (time axis of 1 so ``x[idx, :window]`` slicing
       of every array keeps working).
-    stats: the training statistics (unused beyond validation; positions are scaled by
-    ``config.data.position_scale``, kept fixed so checkpoints do not depend on the data subset).
+    data: the config's ``data`` section (parents, num_contacts). stats: the training statistics (unused beyond
+    validation; positions are scaled by ``data.position_scale``, kept fixed so checkpoints do not depend on the
+    data subset).
     """
-    parents = tuple(config.data.parents)
+    parents = tuple(data.parents)
     if tuple(windows.skeleton.parents) != parents:
         raise DatasetError(
             f"windows have a {windows.skeleton.num_joints}-joint skeleton whose parents differ from "
             f"config.data.parents ({len(parents)} joints); set data.parents to {tuple(windows.skeleton.parents)}")
     contacts = np.asarray(windows.contacts, np.float32)
-    if contacts.shape[-1] != config.data.num_contacts:
+    if contacts.shape[-1] != data.num_contacts:
         raise DatasetError(f"windows have {contacts.shape[-1]} contact channels, config.data.num_contacts="
-                           f"{config.data.num_contacts}")
+                           f"{data.num_contacts}")
     rotations = np.asarray(windows.rotations, np.float64)
     positions = np.asarray(windows.positions, np.float64)
     _, global_positions = skel.forward_kinematics(rotations, positions, parents)
     if phase_labels is None:
-        phase_labels = phase.phase_labels(contacts, windows.fps, config.phase)
+        phase_labels = phase.phase_labels(contacts, windows.fps)
     phase_labels = np.asarray(phase_labels, np.float32)
     phase_labels = phase_labels.reshape(phase_labels.shape[:2] + (-1,))
     offsets = positions[:, :1].copy()
@@ -141,26 +135,26 @@ def dataset_states(dataset: dict, velocity_scale: float):
 
     Frame 0 of each window gets the velocity of frame 1 (the window has no previous frame).
     """
-    xp = _xp(dataset["root_positions"])
+    xp = R.array_module(dataset["root_positions"])
     velocity = root_velocities(dataset["root_positions"], velocity_scale)
     velocity = xp.concatenate([velocity[:, 1:2], velocity[:, 1:]], axis=1)
     return state_vector(dataset["rotations"], velocity, dataset["contacts"])
 
 
-def phase_training_arrays(dataset: dict, config) -> tuple:
-    """(states (N, S), labels (N, 2C)) of every frame of a prepared dataset's windows, the phase network's
-    pretraining set (``phase.pretrain_phase``); with ``phase.include_reversed`` also those of the same windows
-    played backwards (:func:`reverse_time`, the backward generator's states)."""
-    states = np.asarray(dataset_states(dataset, config.data.velocity_scale))
+def phase_training_arrays(dataset: dict, velocity_scale: float, fps: float) -> tuple:
+    """(states (N, S), labels (N, 2C)) of every frame of a prepared dataset's windows and of the same windows
+    played backwards (:func:`reverse_time`: the backward generator feeds the phase network time-reversed
+    states, labelled from the reversed contacts), the phase network's pretraining set
+    (``phase.pretrain_phase``); velocity_scale, fps: ``data.velocity_scale`` and ``data.fps``."""
+    states = np.asarray(dataset_states(dataset, velocity_scale))
     states = states.reshape(-1, states.shape[-1])
     labels = np.asarray(dataset["phase"]).reshape(states.shape[0], -1)
-    if config.phase.include_reversed:  # the backward generator's states: time-reversed windows
-        reversed_windows = reverse_time(dataset)
-        rev_states = np.asarray(dataset_states(reversed_windows, config.data.velocity_scale))
-        rev_labels = phase.phase_labels(reversed_windows["contacts"], config.data.fps, config.phase)
-        states = np.concatenate([states, rev_states.reshape(-1, states.shape[-1])])
-        labels = np.concatenate([labels, np.asarray(rev_labels, np.float32).reshape(rev_states.shape[0] *
-                                                                                    rev_states.shape[1], -1)])
+    reversed_windows = reverse_time(dataset)
+    rev_states = np.asarray(dataset_states(reversed_windows, velocity_scale))
+    rev_labels = phase.phase_labels(reversed_windows["contacts"], fps)
+    states = np.concatenate([states, rev_states.reshape(-1, states.shape[-1])])
+    labels = np.concatenate([labels, np.asarray(rev_labels, np.float32).reshape(rev_states.shape[0] *
+                                                                                rev_states.shape[1], -1)])
     return states, labels
 
 
@@ -202,7 +196,7 @@ def cut_windows(data: dict, index, shift, window: int, facing_frame: int) -> dic
     B windows, (B, window, ...) ("offsets" (B, 1, J, 3)): frame 0 is the start keyframe and frame
     ``window - 1`` the last frame. Works on numpy and jax arrays (a pure gather plus a rigid turn).
     """
-    xp = _xp(data["rotations"])
+    xp = R.array_module(data["rotations"])
     index = xp.asarray(index)
     frames = xp.asarray(shift)[:, None] + xp.arange(int(window))[None, :]  # (B, window)
     out = {name: data[name][index[:, None], frames] for name in _TIME_KEYS}

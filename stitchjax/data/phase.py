@@ -1,9 +1,9 @@
 """Local motion phases: automatic labels from foot contacts and the phase-identification network.
 
 Labels follow Starke et al. 2020 ("Local Motion Phases for Learning Multi-Contact Character
-Movements"): each foot-contact channel is smoothed, and in a window of +-``window_seconds``
+Movements"): each foot-contact channel is smoothed, and in a window of +-:data:`WINDOW_SECONDS`
 around every frame a sinusoid ``A sin(2 pi (F t - S)) + B`` is fitted. For every frequency F of a
-grid (``min_frequency``..``max_frequency`` Hz) the model is linear in (a, b, B) with
+grid (:data:`MIN_FREQUENCY`..:data:`MAX_FREQUENCY` Hz) the model is linear in (a, b, B) with
 ``a sin(2 pi F t) + b cos(2 pi F t) + B``, so each fit is a small (ridge) least-squares problem
 solved for all frames and frequencies at once with matrix products; the frequency with the lowest
 residual wins. With t measured from the centre frame, the phase there is phi = (-S) mod 1 and the
@@ -15,9 +15,9 @@ whole clip and slicing it gives better labels near window borders than labelling
 The phase network (``PhaseNetwork``) maps the per-frame character state (``features.state_vector``,
 size J*4 + 7) to the P = 2*C phase features; ``pretrain_phase`` fits it to the labels with Adam.
 
-Settings are the ``phase`` section of the config (``stitchjax.config.PhaseConfig``): functions take that
-section as ``settings`` (a whole ``Config`` is read for its ``.phase``; None = the defaults), and keyword
-arguments override single fields.
+The labels' fit uses the named constants below (the paper gives none of them). The network's size and its
+pretraining are the ``phase`` section of the config (``stitchjax.config.PhaseConfig``): functions take that
+section as ``settings`` (None = the defaults), and keyword arguments override single fields.
 """
 from __future__ import annotations
 
@@ -42,35 +42,30 @@ class PhaseError(ValueError):
 # --------------------------------------------------------------------------------------------------
 # settings
 
+# The labels' fit (Starke et al. 2020; docs/design.md §5.1):
+WINDOW_SECONDS = 1.0  # the +-1 s fit window holds >= 1 period for F >= 0.5 Hz
+MIN_FREQUENCY = 0.25  # Hz: the lowest of the sinusoid fit's frequency grid
+MAX_FREQUENCY = 4.0  # Hz: the highest of the grid
+NUM_FREQUENCIES = 31  # a 0.125 Hz grid, finer than a 2 s window resolves
+SMOOTHING_SECONDS = 0.05  # removes 1-2 frame contact flicker
+RIDGE = 1.0  # keeps near-degenerate low-frequency fits finite
+# The phase network's pretraining:
+LEARNING_RATE = 1e-3  # Adam's default scale for a small MLP
 
 _FIELDS = tuple(f.name for f in dataclasses.fields(PhaseConfig))
 
 
-def phase_settings(settings: Any = None, **overrides: Any) -> PhaseConfig:
-    """Settings from a ``PhaseConfig``, a ``Config`` (uses ``.phase``) or None (the defaults), plus
-    keyword overrides; checked."""
-    source = getattr(settings, "phase", settings)
-    values = {}
-    for name in _FIELDS:
-        if source is not None and hasattr(source, name):
-            values[name] = getattr(source, name)
+def phase_settings(settings: PhaseConfig | None = None, **overrides: Any) -> PhaseConfig:
+    """Settings from a ``PhaseConfig`` (``config.phase``) or None (the defaults), plus keyword overrides."""
     unknown = set(overrides) - set(_FIELDS)
     if unknown:
         raise PhaseError(f"unknown phase setting(s) {sorted(unknown)}; known: {list(_FIELDS)}")
-    values.update(overrides)
-    settings = PhaseConfig(**values)
-    if not 0 < settings.min_frequency <= settings.max_frequency:
-        raise PhaseError(
-            f"need 0 < min_frequency <= max_frequency, got {settings.min_frequency}, {settings.max_frequency}"
-        )
-    if settings.num_frequencies < 1 or settings.window_seconds <= 0:
-        raise PhaseError("num_frequencies must be >= 1 and window_seconds > 0")
-    return settings
+    return dataclasses.replace(PhaseConfig() if settings is None else settings, **overrides)
 
 
-def frequency_grid(settings: PhaseConfig) -> np.ndarray:
-    """The candidate frequencies in Hz, (num_frequencies,)."""
-    return np.linspace(settings.min_frequency, settings.max_frequency, settings.num_frequencies)
+def frequency_grid() -> np.ndarray:
+    """The candidate frequencies in Hz, (NUM_FREQUENCIES,)."""
+    return np.linspace(MIN_FREQUENCY, MAX_FREQUENCY, NUM_FREQUENCIES)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -175,22 +170,20 @@ def _dense_operators(num_frames: int, fps: float, half: int, freqs: tuple, ridge
     return to_xty, to_coef
 
 
-def _fit_rows(y: np.ndarray, fps: float, settings: PhaseConfig, freqs: np.ndarray):
+def _fit_rows(y: np.ndarray, fps: float, freqs: np.ndarray):
     """Fit every frame of (R, T) raw contact rows; returns (a, b, B, F) each (R, T)."""
     num_rows, num_frames = y.shape
-    half = max(1, int(round(settings.window_seconds * fps)))
+    half = max(1, int(round(WINDOW_SECONDS * fps)))
     width = 2 * half + 1
     num_freqs = len(freqs)
-    sigma = float(settings.smoothing_seconds * fps)
+    sigma = float(SMOOTHING_SECONDS * fps)
     if num_frames <= 2 * width:  # short clips (training windows): one dense product per quantity
-        to_xty, to_coef = _dense_operators(num_frames, float(fps), half, tuple(freqs),
-                                           float(settings.ridge), sigma)
+        to_xty, to_coef = _dense_operators(num_frames, float(fps), half, tuple(freqs), float(RIDGE), sigma)
         xty = (y @ to_xty).reshape(num_rows, num_frames, num_freqs, 3)
         coef = (y @ to_coef).reshape(num_rows, num_frames, num_freqs, 3)
     else:  # long clips: sliding windows, one solve matrix per distinct (truncated) window
         y = _smooth(y, sigma)
-        basis, solve, group = _fit_operators(num_frames, float(fps), half, tuple(freqs),
-                                             float(settings.ridge))
+        basis, solve, group = _fit_operators(num_frames, float(fps), half, tuple(freqs), float(RIDGE))
         padded = np.zeros((num_rows, num_frames + 2 * half), np.float32)
         padded[:, half:half + num_frames] = y
         windows = np.lib.stride_tricks.sliding_window_view(padded, width, axis=1)  # (R, T, K) view
@@ -209,7 +202,7 @@ def _fit_rows(y: np.ndarray, fps: float, settings: PhaseConfig, freqs: np.ndarra
     return chosen[..., 0], chosen[..., 1], chosen[..., 2], freqs[best]
 
 
-def fit_local_phase(contacts: Any, fps: float, settings: Any = None, **overrides: Any) -> LocalPhase:
+def fit_local_phase(contacts: Any, fps: float) -> LocalPhase:
     """Local phase fit of every frame and contact channel.
 
     contacts: (..., T, C) contact signals (0/1 floats), any leading axes (clips or windows); each
@@ -223,16 +216,15 @@ def fit_local_phase(contacts: Any, fps: float, settings: Any = None, **overrides
         raise PhaseError("contacts contain NaN or inf; pass 0/1 contact floats")
     if not fps > 0:
         raise PhaseError(f"fps must be positive, got {fps}")
-    settings = phase_settings(settings, **overrides)
-    freqs = frequency_grid(settings)
+    freqs = frequency_grid()
     *lead, num_frames, num_channels = contacts.shape
     rows = np.moveaxis(contacts, -1, -2).reshape(-1, num_frames)  # (R, T), R = prod(lead) * C
     outputs = [np.empty(rows.shape, np.float32) for _ in range(4)]
-    half = max(1, int(round(settings.window_seconds * fps)))
+    half = max(1, int(round(WINDOW_SECONDS * fps)))
     # chunk rows so each (rows, T, F, 3) work array stays near 8M floats (32 MB)
     chunk = max(1, (8 << 20) // max(1, num_frames * len(freqs) * 3 + num_frames * (2 * half + 1)))
     for start in range(0, rows.shape[0], chunk):
-        for out, value in zip(outputs, _fit_rows(rows[start:start + chunk], fps, settings, freqs)):
+        for out, value in zip(outputs, _fit_rows(rows[start:start + chunk], fps, freqs)):
             out[start:start + chunk] = value
     a, b, offset, freq = (np.moveaxis(o.reshape(*lead, num_channels, num_frames), -1, -2) for o in outputs)
     amplitude = np.hypot(a, b)
@@ -242,13 +234,13 @@ def fit_local_phase(contacts: Any, fps: float, settings: Any = None, **overrides
                       frequency=freq.astype(np.float32), offset=offset.astype(np.float32))
 
 
-def phase_labels(contacts: Any, fps: float, settings: Any = None, **overrides: Any) -> np.ndarray:
+def phase_labels(contacts: Any, fps: float) -> np.ndarray:
     """Phase labels A (sin 2 pi phi, cos 2 pi phi): (..., T, C) contacts -> (..., T, C, 2) float32.
 
     Works on one clip (T, C) or on batches of windows (N, T, C); flatten the last two axes for the
     network target: ``labels.reshape(*labels.shape[:-2], -1)`` -> (..., T, 2*C).
     """
-    return fit_local_phase(contacts, fps, settings, **overrides).features().astype(np.float32)
+    return fit_local_phase(contacts, fps).features().astype(np.float32)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -282,7 +274,7 @@ def _network_from_params(phase_params: Any) -> PhaseNetwork:
     return PhaseNetwork(hidden_dims=tuple(hidden), num_outputs=outputs)
 
 
-def init_phase_params(key: jax.Array, state_dim: int, settings: Any = None, num_outputs: int = 8,
+def init_phase_params(key: jax.Array, state_dim: int, settings: PhaseConfig | None = None, num_outputs: int = 8,
                       **overrides: Any) -> dict:
     """Fresh PhaseNetwork parameters for states of size ``state_dim`` (J*4 + 7)."""
     settings = phase_settings(settings, **overrides)
@@ -315,9 +307,10 @@ def _train(params, states, labels, key, learning_rate, steps: int, batch_size: i
     return params, losses
 
 
-def pretrain_phase(key: jax.Array, states: Any, labels: Any, settings: Any = None,
+def pretrain_phase(key: jax.Array, states: Any, labels: Any, settings: PhaseConfig | None = None,
                    **overrides: Any) -> tuple[dict, jax.Array]:
-    """Fit a fresh PhaseNetwork to phase labels with Adam (one jitted ``lax.scan`` over steps).
+    """Fit a fresh PhaseNetwork to phase labels with Adam (one jitted ``lax.scan`` over steps, learning rate
+    :data:`LEARNING_RATE`).
 
     states: (N, S) character states; labels: (N, P) flattened phase labels. Minibatches of
     ``batch_size`` frames are drawn with replacement using ``fold_in(key, step)``.
@@ -335,7 +328,7 @@ def pretrain_phase(key: jax.Array, states: Any, labels: Any, settings: Any = Non
         raise PhaseError("steps and batch_size must be >= 1")
     init_key, train_key = jax.random.split(key)
     params = init_phase_params(init_key, states.shape[-1], settings, num_outputs=labels.shape[-1])
-    params, losses = _train(params, states, labels, train_key, jnp.float32(settings.learning_rate),
+    params, losses = _train(params, states, labels, train_key, jnp.float32(LEARNING_RATE),
                             steps=int(settings.steps), batch_size=int(settings.batch_size))
     tail = max(1, settings.steps // 20)
     return params, jnp.mean(losses[-tail:])

@@ -197,8 +197,7 @@ def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correla
     ``start`` and ``start + length + 1`` of each window and their foot-contact labels from ``windows.contacts``
     (the keyframes' character state, as in training); it returns the L generated frames only.
     search: latent pairs per sample (0: none); noise_scale: factor on the latent noise; noise_correlation:
-    its correlation from frame to frame (``noise.correlated_noise``; 0: independent, the paper's; None:
-    the model's ``model.noise_correlation``);
+    its correlation from frame to frame (``noise.correlated_noise``; 0 or None: independent, the paper's);
     noise_ramp_steps: its ramp from each keyframe (``noise.noise_ramp``; 0: none, the paper's).
     foot_lock: plant the feet after sampling (:mod:`stitchjax.sample.footlock`; True or a ``FootLockConfig``); the
     method's ``foot_lock_counts`` dict then adds up its planted, let-go, changed and lifted leg-frames.

@@ -11,22 +11,21 @@ import jax
 import jax.numpy as jnp
 
 from stitchjax.data import features as F
-from stitchjax.model.rollout import num_steps, rollout
+from stitchjax.model.rollout import StepHook, num_steps, rollout
 
-__all__ = ["rollout_batch", "vmapped_rollout", "keyframes_from_batch", "direction_frames", "next_frame_states",
-           "prior_sample_flags"]
+__all__ = ["rollout_batch", "vmapped_rollout", "latent_inputs", "keyframes_from_batch", "direction_frames",
+           "next_frame_states", "prior_sample_flags"]
 
 
 def rollout_batch(gen_params, phase_params, batch: dict, key, spec, length, max_length: int | None = None,
-                  posterior: bool = True, prior_flags=None, runner=None):
+                  posterior: bool = True, runner=None):
     """:func:`rollout.rollout` of every window of a batch dict (from ``features.prepare_dataset``, leading B).
 
     Keyframes: frame 0 and frame ``length + 1`` of each window; max_length defaults to T - 2.
     Per-example noise from ``jax.random.split(key, B)``. posterior: draw z from the posterior on the
     batch's ground truth (when ``model.posterior`` has one); False = from the prior, as at inference. With
     ``loss.prior_sample_fraction`` > 0 each window draws z from the prior instead with that probability
-    (:func:`prior_sample_flags`); prior_flags, a (B,) bool array, names those windows instead (with a
-    posterior; ``objective.prior_copies``).
+    (:func:`prior_sample_flags`).
     runner: how the windows' rollouts run, ``runner(generators, inputs, constants, spec, max_length)`` with
     the arguments of :func:`vmapped_rollout` (None: that one, the plain vmap); another runner gives the same
     values by other means.
@@ -42,7 +41,7 @@ def rollout_batch(gen_params, phase_params, batch: dict, key, spec, length, max_
     keys = jax.random.split(key, batch["rotations"].shape[0])
     generators = {name: gen_params[name] for name in ("forward", "backward")}
     length = jnp.asarray(length, jnp.int32)
-    truth, use_prior = _latent_source(batch, key, keys.shape[0], spec, length, max_length, posterior, prior_flags)
+    truth, use_prior = _latent_source(batch, key, keys.shape[0], spec, length, max_length, posterior)
     run = vmapped_rollout if runner is None else runner
     out = run(generators, (phase_params, start, target, offsets, truth), (keys, length, use_prior), spec, max_length)
     return {**out, "prior_sampled": _prior_sampled(truth, use_prior, keys.shape[0])}
@@ -60,20 +59,26 @@ def vmapped_rollout(generators, inputs, constants, spec, max_length: int, checkp
     keys, length, use_prior = constants
 
     def one(s, t, o, k, g, u):
-        return rollout(generators, phase_params, s, t, o, k, spec, length, max_length, ground_truth=g,
-                       use_prior=u, checkpoint_policy=checkpoint_policy)
+        return rollout(generators, phase_params, (s, t, o), k, spec, length, max_length,
+                       latent=latent_inputs(g, u), hook=StepHook(checkpoint_policy))
 
     return jax.vmap(one)(start, target, offsets, keys, truth, use_prior)
 
 
-def _latent_source(batch, key, batch_size: int, spec, length, max_length: int, posterior: bool, prior_flags):
+def latent_inputs(truth, use_prior) -> dict | None:
+    """``rollout``'s ``latent`` of one window: its posterior inputs ``truth`` ({"forward", "backward"} or None:
+    z from the prior) and ``use_prior`` (() bool or None)."""
+    if truth is None:
+        return None
+    return truth if use_prior is None else {**truth, "use_prior": use_prior}
+
+
+def _latent_source(batch, key, batch_size: int, spec, length, max_length: int, posterior: bool):
     """(truth, use_prior) of :func:`rollout_batch`: the posterior inputs (None: z from the prior) and the (B,)
     windows that draw z from the prior anyway (None: no window)."""
     if not (posterior and spec.generator.posterior != "none"):
         return None, None
-    truth = next_frame_states(batch, length, num_steps(spec, max_length), spec)
-    if prior_flags is not None:
-        return truth, jnp.asarray(prior_flags, bool)
+    truth = next_frame_states(batch, length, num_steps(spec, max_length), spec.velocity_scale)
     if spec.prior_sample_fraction != 0:  # prior_sample_flags refuses values outside [0, 1]
         return truth, prior_sample_flags(key, batch_size, spec.prior_sample_fraction)
     return truth, None
@@ -100,21 +105,14 @@ def keyframes_from_batch(batch: dict, length):
     return keyframe(0), keyframe(index), batch["offsets"][:, 0]
 
 
-def direction_frames(batch: dict, length, num_steps: int, backward: bool, scales, ahead: int = 1) -> dict:
+def direction_frames(batch: dict, length, num_steps: int, backward: bool, velocity_scale: float) -> dict:
     """Ground truth of one direction's per-step frames (entry i = forward frame i + 1, or backward frame
-    L - i), in that direction's time: "rotations" (B, n, J, 4), "velocities" (B, n, 3) scaled (reversed
-    time for the backward direction), "contacts" (B, n, C), "global_positions" (B, n, J, 3). scales: anything
-    with the ``velocity_scale`` of the data (a :class:`RolloutSpec`, a ``specs.SkeletonSpec``, ``config.data``).
-
-    ahead = k > 1: entry i is the frame k - 1 further on in that direction's time, clipped at the keyframe it
-    heads for (frame L + 1 forward, frame 0 backward), and "velocities" the root's mean velocity over the k
-    frames from the frame before entry i's own (so k = 1 is the frame's own velocity)."""
+    L - i), in that direction's time: "rotations" (B, n, J, 4), "velocities" (B, n, 3) scaled by
+    ``velocity_scale`` (``data.velocity_scale``; reversed time for the backward direction), "contacts"
+    (B, n, C), "global_positions" (B, n, J, 3)."""
     length = jnp.asarray(length, jnp.int32)
     made = jnp.arange(1, num_steps + 1, dtype=jnp.int32)  # direction time of the frame each step makes
-    step = made  # direction time of the frame each entry shows
-    if ahead > 1:
-        step = jnp.maximum(made, jnp.minimum(made + (ahead - 1), length + 1))
-    frames = (length + 1 - step) if backward else step
+    frames = (length + 1 - made) if backward else made
     before = (length + 2 - made) if backward else made - 1  # the frame each step starts from
 
     def take(x, index=frames):
@@ -122,22 +120,17 @@ def direction_frames(batch: dict, length, num_steps: int, backward: bool, scales
 
     root = batch["root_positions"]
     velocity = take(root) - take(root, before)
-    if ahead > 1:  # per frame, over the span from `before`
-        velocity = velocity / (step - made + 1).astype(root.dtype)[None, :, None]
-    velocity = velocity / scales.velocity_scale
+    velocity = velocity / velocity_scale
     return {"rotations": take(batch["rotations"]), "velocities": velocity, "contacts": take(batch["contacts"]),
             "global_positions": take(batch["global_positions"])}
 
 
-def next_frame_states(batch: dict, length, num_steps: int, spec) -> dict:
-    """Posterior inputs {"forward", "backward"}: (B, n, S) ground-truth state of the frame each step makes,
-    or with ``model.posterior_horizon`` = k > 1 of the frame k - 1 further on (:func:`direction_frames`)."""
-    ahead = spec.posterior_horizon
-    if ahead < 1:
-        raise ValueError(f"model.posterior_horizon must be >= 1 (1 = the next frame), got {ahead}")
+def next_frame_states(batch: dict, length, num_steps: int, velocity_scale: float) -> dict:
+    """Posterior inputs {"forward", "backward"}: (B, n, S) ground-truth state of the frame each step makes
+    (:func:`direction_frames`; ``velocity_scale``: ``data.velocity_scale``)."""
     out = {}
     for name in ("forward", "backward"):
-        d = direction_frames(batch, length, num_steps, name == "backward", spec, ahead)
+        d = direction_frames(batch, length, num_steps, name == "backward", velocity_scale)
         out[name] = F.state_vector(d["rotations"], d["velocities"], d["contacts"])
     return out
 

@@ -14,7 +14,6 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from stitchjax.config import CHOICES
 
 __all__ = ["elu", "LAYER_FUNCTIONS", "Layer", "Dense", "LSTMCell", "MLP", "MoEDense", "orthogonal_blocks",
            "expert_init"]
@@ -25,13 +24,8 @@ def elu(x):
     return jnp.where(x > 0, x, jnp.expm1(jnp.minimum(x, 0)))
 
 
-_ACTIVATION_FUNCTIONS = {"elu": elu, "relu": nn.relu, "gelu": nn.gelu, "silu": nn.silu,
-                         "leaky_relu": lambda x: nn.leaky_relu(x, 0.2), "tanh": jnp.tanh}
-# The allowed names are config.CHOICES' (one list); every one of them must have a function here.
-_ACTIVATIONS = {name: _ACTIVATION_FUNCTIONS[name] for name in CHOICES[("model", "activation")]}
-
-# What a layer may apply to its matmul output: the activations, and the identity / softmax of output layers.
-LAYER_FUNCTIONS = {**_ACTIVATIONS, "identity": lambda y: y, "softmax": lambda y: jax.nn.softmax(y, axis=-1)}
+# What a layer may apply to its matmul output: the ELU of hidden layers, the identity / softmax of output layers.
+LAYER_FUNCTIONS = {"elu": elu, "identity": lambda y: y, "softmax": lambda y: jax.nn.softmax(y, axis=-1)}
 
 ModuleDef = Any  # a flax module class (or a functools.partial of one)
 
@@ -57,7 +51,7 @@ class Dense(Layer):
     """Dense layer x (..., in) -> activation(x @ kernel + bias) (..., features), flax ``nn.Dense``
     initialisation and parameter names; x may be a tuple of parts, joined along the last axis.
 
-    activation: a ``model.activation`` name, "identity" or "softmax" (over the features);
+    activation: "elu", "identity" or "softmax" (over the features; :data:`LAYER_FUNCTIONS`);
     matmul_dtype: the ``model.matmul_dtype`` setting, read by layers whose ``product`` honours it (the plain
     product is float32).
     """

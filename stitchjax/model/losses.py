@@ -4,10 +4,10 @@ The objectives that weigh them (paper Eq. 9) and the rollout they score are :mod
 Optional, not in the paper: :func:`foot_skate_loss` (``loss.foot_skate_weight``), :func:`foot_velocity_loss`
 (``loss.foot_velocity_weight``) and :func:`ground_penetration_loss` (``loss.ground_penetration_weight``).
 
-Norms: ``loss.reduction="sum"`` takes ||.||_1 literally (sum over the components of a frame), then the
-mean over valid frames and the batch; "mean" also averages over components. Positions enter FK,
-stitching and discriminator features divided by ``data.position_scale`` (LAFAN1: metres;
-``SkeletonSpec.position_scale``).
+Norms: ||.||_1 as written, the sum over the components of a frame, then the mean over valid frames and the
+batch (the stitching loss may also average over components: ``reduction="mean"``, the sampler's per-motion
+score). Positions enter FK, stitching and discriminator features divided by ``data.position_scale`` (LAFAN1:
+metres; ``SkeletonSpec.position_scale``).
 """
 from __future__ import annotations
 
@@ -37,16 +37,17 @@ def _norm1(x, reduction: str, axes):
         return jnp.sum(jnp.abs(x), axis=axes)
     if reduction == "mean":
         return jnp.mean(jnp.abs(x), axis=axes)
-    raise ValueError(f"loss.reduction={reduction!r}: use 'sum' or 'mean'")
+    raise ValueError(f"reduction={reduction!r}: use 'sum' or 'mean'")
 
 
 def state_loss(pred, true, mask, loss_config):
     """Paper Eq. 4: beta1 |q^ - q|_1 + beta2 |v^ - v|_1 + beta3 |c^ - c|_1 per frame, mean over valid frames.
 
     pred/true: dicts with "rotations" (..., T, J, 4), "velocities" (..., T, 3) scaled, "contacts"
-    (..., T, C); mask (..., T). Returns (total, {"rotation", "velocity", "contact"}).
+    (..., T, C); mask (..., T); loss_config: ``config.loss`` (the betas). Returns (total, {"rotation",
+    "velocity", "contact"}).
     """
-    r = loss_config.reduction
+    r = "sum"
     rot = masked_mean(_norm1(pred["rotations"] - true["rotations"], r, (-2, -1)), mask)
     vel = masked_mean(_norm1(pred["velocities"] - true["velocities"], r, -1), mask)
     con = masked_mean(_norm1(pred["contacts"] - true["contacts"], r, -1), mask)
@@ -54,28 +55,27 @@ def state_loss(pred, true, mask, loss_config):
     return total, {"rotation": rot, "velocity": vel, "contact": con}
 
 
-def kl_loss(mu, logvar, mask, reduction: str = "sum"):
-    """Paper Eq. 5: KL(N(mu, exp(logvar)) || N(0, I)) per frame (sum or mean over latent dims), mean over valid
+def kl_loss(mu, logvar, mask):
+    """Paper Eq. 5: KL(N(mu, exp(logvar)) || N(0, I)) per frame (summed over latent dims), mean over valid
     frames. With ``model.posterior="none"`` the objective's L_kl is this term on the sampling distribution p."""
     kl = 0.5 * (jnp.square(mu) + jnp.exp(logvar) - 1.0 - logvar)
-    per_frame = jnp.sum(kl, axis=-1) if reduction == "sum" else jnp.mean(kl, axis=-1)
-    return masked_mean(per_frame, mask)
+    return masked_mean(jnp.sum(kl, axis=-1), mask)
 
 
-def gaussian_kl(mu_q, logvar_q, mu_p, logvar_p, reduction: str = "sum"):
-    """KL(q || p) between diagonal Gaussians per frame, (..., latent) -> (...,) (sum or mean over dims)."""
+def gaussian_kl(mu_q, logvar_q, mu_p, logvar_p):
+    """KL(q || p) between diagonal Gaussians per frame, (..., latent) -> (...,) (summed over dims)."""
     kl = 0.5 * (logvar_p - logvar_q + (jnp.exp(logvar_q) + jnp.square(mu_q - mu_p)) / jnp.exp(logvar_p) - 1.0)
-    return jnp.sum(kl, axis=-1) if reduction == "sum" else jnp.mean(kl, axis=-1)
+    return jnp.sum(kl, axis=-1)
 
 
-def posterior_kl_loss(out_dir, mask, free_bits: float = 0.0, reduction: str = "sum"):
+def posterior_kl_loss(out_dir, mask, free_bits: float = 0.0):
     """Paper Eq. 5 as read with a posterior (docs/design.md §5.5): KL(q || p) of one direction, q the posterior, p the
     latent-interpolation prior (``mu_blend``), per frame; the objective's L_kl with ``model.posterior="next_frame"``.
 
     Returns (raw, penalised): the mean over valid frames of the KL, and of max(KL, free_bits) (free bits:
     below ``free_bits`` nats per frame the term has no gradient, so q keeps that much information)."""
     kl = gaussian_kl(out_dir["mu_posterior"], out_dir["logvar_posterior"], out_dir["mu_blend"],
-                     out_dir["logvar_blend"], reduction)
+                     out_dir["logvar_blend"])
     return masked_mean(kl, mask), masked_mean(jnp.maximum(kl, free_bits), mask)
 
 
@@ -102,8 +102,7 @@ def stitching_loss(pos_fwd, pos_bwd, mask, position_scale: float = 1.0, reductio
     return (per_frame * mask).sum(-1) / jnp.maximum(mask.sum(-1), 1.0)
 
 
-def foot_skate_loss(global_positions, contacts, mask, feet, position_scale: float, reduction: str = "sum",
-                    up_axis: int | None = None):
+def foot_skate_loss(global_positions, contacts, mask, feet, position_scale: float, up_axis: int | None = None):
     """Foot skate: L1 movement of the contact joints from frame t - 1 to frame t, weighted by the contact of
     that joint at frame t, / position_scale, mean over valid frames (not in the paper).
 
@@ -118,10 +117,10 @@ def foot_skate_loss(global_positions, contacts, mask, feet, position_scale: floa
         step = step * (jnp.arange(step.shape[-1]) != up_axis).astype(step.dtype)
     weighted = step * contacts[..., 1:, :, None]
     valid = mask[..., 1:] & mask[..., :-1]
-    return masked_mean(_norm1(weighted, reduction, (-2, -1)), valid)
+    return masked_mean(_norm1(weighted, "sum", (-2, -1)), valid)
 
 
-def foot_velocity_loss(global_positions, truth_positions, mask, feet, position_scale: float, reduction: str = "sum"):
+def foot_velocity_loss(global_positions, truth_positions, mask, feet, position_scale: float):
     """Foot velocity: L1 between the generated and the ground-truth movement of the contact joints from frame
     t - 1 to frame t, / position_scale, mean over valid frame pairs (not in the paper). The foot-skate term
     leaves a foot in the air free to move any distance in one frame; this term holds every foot to the
@@ -134,7 +133,7 @@ def foot_velocity_loss(global_positions, truth_positions, mask, feet, position_s
     truth = truth_positions[..., feet, :]
     step = (generated[..., 1:, :, :] - generated[..., :-1, :, :]) - (truth[..., 1:, :, :] - truth[..., :-1, :, :])
     valid = mask[..., 1:] & mask[..., :-1]
-    return masked_mean(_norm1(step / position_scale, reduction, (-2, -1)), valid)
+    return masked_mean(_norm1(step / position_scale, "sum", (-2, -1)), valid)
 
 
 def foot_height_contacts(global_positions, truth_positions, mask, feet, up_axis: int = 1,
@@ -166,7 +165,7 @@ def window_ground(truth_positions, mask, feet, up_axis: int = 1):
 
 
 def ground_penetration_loss(global_positions, truth_positions, mask, feet, position_scale: float,
-                            up_axis: int = 1, reduction: str = "sum"):
+                            up_axis: int = 1):
     """Ground penetration: how far each generated foot joint is below the window's ground (:func:`window_ground`),
     max(ground - height, 0) / position_scale, summed over the foot joints, mean over valid frames (not in the
     paper). Zero when no foot joint is below the ground; the ground truth scores zero by construction.
@@ -176,8 +175,7 @@ def ground_penetration_loss(global_positions, truth_positions, mask, feet, posit
     ground = jax.lax.stop_gradient(window_ground(truth_positions, mask, feet, up_axis))
     heights = global_positions[..., list(feet), up_axis]  # (..., T, C)
     depth = jnp.maximum(ground[..., None, None] - heights, 0.0) / position_scale
-    per_frame = jnp.sum(depth, axis=-1) if reduction == "sum" else jnp.mean(depth, axis=-1)
-    return masked_mean(per_frame, mask)
+    return masked_mean(jnp.sum(depth, axis=-1), mask)
 
 
 def lsgan_generator_loss(fake_scores, mask):
@@ -192,8 +190,8 @@ def lsgan_discriminator_loss(real_scores, fake_scores, mask):
 
 def disc_features(global_positions, root_positions, skeleton):
     """Per-frame discriminator input (..., T, (J-1)*3 + 3): joint positions relative to the root joint
-    and the root velocity (frame 0: 0), both scaled (``position_scale``, ``velocity_scale`` of `skeleton`:
-    a ``SkeletonSpec``, or ``config.data``)."""
+    and the root velocity (frame 0: 0), both scaled (``position_scale``, ``velocity_scale`` of `skeleton`,
+    a ``specs.SkeletonSpec``)."""
     rel = (global_positions[..., 1:, :] - global_positions[..., :1, :]) / skeleton.position_scale
     rel = rel.reshape(rel.shape[:-2] + (-1,))
     vel = F.root_velocities(root_positions, skeleton.velocity_scale)

@@ -3,14 +3,15 @@
 Generator (one per direction, paper section 3.1 / 4.1), one autoregressive step::
 
     state (S) ──► state encoder  (3 FC) ─┐
-    offset (J*4+3 [+1]) ► offset encoder (3 FC) ─┼─ concat ─► LSTM cell ─► h ─┬─► FC ─► (mu, logvar)   current
+    offset (J*4+4) ─► offset encoder (3 FC) ─┼─ concat ─► LSTM cell ─► h ─┬─► FC ─► (mu, logvar)   current
     target (S) ─► target encoder (3 FC) ─┘                                    └─► FC ─► (mu_t, logvar_t) target
     (model.lstm=false: h = the concatenated embeddings, no LSTM cell)
     latent interpolation (Eq. 1): prior p = N((1-g) mu + g mu_t, sigma_g^2)
     posterior (training, model.posterior="next_frame"): q = N(mu_q, sigma_q^2) from [h, ground-truth next frame]
     z = mu + sigma * eps from q at training, from p at inference (and always with posterior "none")
-    decoder: [z, state, target (, h)] ─► mixture of E experts (gating MLP on the phase features), z also fed
+    decoder: [z, state, target] ─► mixture of E experts (gating MLP on the phase features), z also fed
              to every later layer ─► (root velocity 3, quaternion update J*4, contact logits C)
+    (ELU activations; the offset's last input is the time left to the target, RMIB's time-to-arrival)
 
 The expert blend mixes each layer's expert *outputs* (``einsum`` over the expert axis), never a blended
 weight matrix per example.
@@ -45,25 +46,22 @@ __all__ = [
     "generator_input_dims", "GAUSSIAN_KEYS",
 ]
 
+# The activation of every hidden layer of the generator (MANN's experts and gating use ELU).
+ACTIVATION = "elu"
+
 # The Gaussians a generator step outputs (:class:`Generator`): current and target heads, the prior p, the posterior q.
 GAUSSIAN_KEYS = ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend", "mu_posterior",
                  "logvar_posterior")
 
-def blend_gaussians(mu, logvar, mu_t, logvar_t, gamma, mode: str = "std"):
+def blend_gaussians(mu, logvar, mu_t, logvar_t, gamma):
     """Latent interpolation (paper Eq. 1): blend N(mu, s^2) and N(mu_t, s_t^2) with weight gamma.
 
-    Mean (1-g) mu + g mu_t. mode "std": sigma = (1-g) s + g s_t (Wasserstein-2 geodesic between the
-    diagonal Gaussians); mode "var": sigma^2 = (1-g)^2 s^2 + g^2 s_t^2 (law of (1-g) z + g z_t, independent).
-    Returns (mu_blend, logvar_blend).
+    Mean (1-g) mu + g mu_t, sigma = (1-g) s + g s_t: the Wasserstein-2 geodesic between the diagonal
+    Gaussians (sigma stays 1 when both are 1). Returns (mu_blend, logvar_blend).
     """
     mean = (1.0 - gamma) * mu + gamma * mu_t
-    if mode == "std":
-        std = (1.0 - gamma) * jnp.exp(0.5 * logvar) + gamma * jnp.exp(0.5 * logvar_t)
-        return mean, 2.0 * jnp.log(std)
-    if mode == "var":
-        var = (1.0 - gamma) ** 2 * jnp.exp(logvar) + gamma ** 2 * jnp.exp(logvar_t)
-        return mean, jnp.log(var)
-    raise ValueError(f"model.variance_blend={mode!r}: use 'std' or 'var'")
+    std = (1.0 - gamma) * jnp.exp(0.5 * logvar) + gamma * jnp.exp(0.5 * logvar_t)
+    return mean, 2.0 * jnp.log(std)
 
 
 def sample_latent(mu, logvar, eps):
@@ -76,9 +74,8 @@ class GeneratorSpec:
     """The generator's sizes and switches, resolved once from a Config (:func:`generator_spec`).
 
     num_joints J, num_contacts C: the state's sizes (S = J*4 + 3 + C); latent_dim, lstm_size,
-    encoder_widths, decoder_widths, gating_widths, num_experts: layer sizes; activation, matmul_dtype;
-    switches of ``config.model``: latent_interpolation (Eq. 1), variance_blend, posterior, decoder_uses_lstm,
-    z_every_layer, phase_modulation, time_to_target_input (one more offset input), lstm (False: the
+    encoder_widths, decoder_widths, gating_widths, num_experts: layer sizes; matmul_dtype;
+    switches of ``config.model``: latent_interpolation (Eq. 1), posterior, phase_modulation, lstm (False: the
     concatenated embeddings are ``h``, no recurrence; the carry passes through unchanged).
     layers: the generator's (dense, lstm_cell, moe_dense) layer classes (:class:`Generator`; () = the plain
     ones of :mod:`stitchjax.model.layers`), the choice of whoever runs the model.
@@ -92,29 +89,24 @@ class GeneratorSpec:
     decoder_widths: tuple
     gating_widths: tuple
     num_experts: int
-    activation: str
     matmul_dtype: str
     latent_interpolation: bool
-    variance_blend: str
     posterior: str
-    decoder_uses_lstm: bool
-    z_every_layer: bool
     phase_modulation: bool
-    time_to_target_input: bool
     lstm: bool = True
     layers: tuple = ()
 
 
-def generator_spec(config) -> GeneratorSpec:
-    """The :class:`GeneratorSpec` of a Config (``config.model`` and the joint / contact counts of ``config.data``)."""
-    m = config.model
+def generator_spec(model, data) -> GeneratorSpec:
+    """The :class:`GeneratorSpec` of a config's ``model`` section and the joint / contact counts of its ``data``
+    section."""
     return GeneratorSpec(
-        num_joints=config.data.num_joints, num_contacts=config.data.num_contacts, latent_dim=m.latent_dim,
-        lstm_size=m.lstm_size, encoder_widths=tuple(m.encoder_widths), decoder_widths=tuple(m.decoder_widths),
-        gating_widths=tuple(m.gating_widths), num_experts=m.num_experts, activation=m.activation,
-        matmul_dtype=m.matmul_dtype, latent_interpolation=m.latent_interpolation, variance_blend=m.variance_blend,
-        posterior=m.posterior, decoder_uses_lstm=m.decoder_uses_lstm, z_every_layer=m.z_every_layer,
-        phase_modulation=m.phase_modulation, time_to_target_input=m.time_to_target_input, lstm=m.lstm)
+        num_joints=data.num_joints, num_contacts=data.num_contacts, latent_dim=model.latent_dim,
+        lstm_size=model.lstm_size, encoder_widths=tuple(model.encoder_widths),
+        decoder_widths=tuple(model.decoder_widths), gating_widths=tuple(model.gating_widths),
+        num_experts=model.num_experts, matmul_dtype=model.matmul_dtype,
+        latent_interpolation=model.latent_interpolation, posterior=model.posterior,
+        phase_modulation=model.phase_modulation, lstm=model.lstm)
 
 
 class Generator(nn.Module):
@@ -136,7 +128,7 @@ class Generator(nn.Module):
         Args:
           carry: LSTM carry (c (H,), h (H,)); returned unchanged without the LSTM (``model.lstm=false``).
           state, target: (S,) current and target character states.
-          offset: (J*4 + 3 [+ 1]) offset features (+ time to target when model.time_to_target_input).
+          offset: (J*4 + 4) offset features and the time left to the target (seconds).
           gamma: () latent interpolation weight in [0, 1].
           phase: (P,) phase features of the current frame (ignored without phase modulation).
           eps: (latent_dim,) standard normal noise.
@@ -154,7 +146,7 @@ class Generator(nn.Module):
         m = self.spec
         latent = m.latent_dim
         dt = m.matmul_dtype
-        encoder = functools.partial(MLP, tuple(m.encoder_widths), m.activation, matmul_dtype=dt, dense=self.dense)
+        encoder = functools.partial(MLP, tuple(m.encoder_widths), ACTIVATION, matmul_dtype=dt, dense=self.dense)
         e_state = encoder(name="state_encoder")(state)
         e_offset = encoder(name="offset_encoder")(offset)
         e_target = encoder(name="target_encoder")(target)
@@ -167,19 +159,19 @@ class Generator(nn.Module):
         mu, logvar = current_head[..., :latent], current_head[..., latent:]
         mu_t, logvar_t = target_head[..., :latent], target_head[..., latent:]
         if m.latent_interpolation:
-            mu_b, logvar_b = blend_gaussians(mu, logvar, mu_t, logvar_t, gamma, m.variance_blend)
+            mu_b, logvar_b = blend_gaussians(mu, logvar, mu_t, logvar_t, gamma)
         else:
             mu_b, logvar_b = mu, logvar
         if m.posterior == "next_frame" and next_state is not None:
-            mu_q, logvar_q = Posterior(latent, m.encoder_widths[-1], m.activation, dt, self.dense,
-                                       name="posterior")(h, state, next_state)
+            mu_q, logvar_q = Posterior(latent, m.encoder_widths[-1], dt, self.dense, name="posterior")(
+                h, state, next_state)
         else:
             mu_q, logvar_q = mu_b, logvar_b
         z = sample_latent(mu_q, logvar_q, eps)
         if use_prior is not None:
             z = jnp.where(use_prior, sample_latent(mu_b, logvar_b, eps), z)
 
-        y = (z, state, target) + ((h,) if m.decoder_uses_lstm else ())
+        y = (z, state, target)
         num_out = 3 + m.num_joints * 4 + m.num_contacts
         y = decode(y, z, phase, m, num_out, self.dense, self.moe_dense)
         n = m.num_joints * 4
@@ -200,59 +192,55 @@ class Posterior(nn.Module):
 
     latent_dim: int
     width: int
-    activation: str = "elu"
     matmul_dtype: str = "float32"
     dense: ModuleDef = Dense
 
     @nn.compact
     def __call__(self, h, state, next_state):
-        x = self.dense(self.width, self.matmul_dtype, self.activation, name="hidden")(
+        x = self.dense(self.width, self.matmul_dtype, ACTIVATION, name="hidden")(
             (h, next_state, next_state - state))
         out = self.dense(2 * self.latent_dim, self.matmul_dtype, name="head")(x)
         return out[..., :self.latent_dim], out[..., self.latent_dim:]
 
 
-def decode(y, z, phase, model_config, num_out: int, dense: ModuleDef = Dense, moe_dense: ModuleDef = MoEDense):
+def decode(y, z, phase, spec, num_out: int, dense: ModuleDef = Dense, moe_dense: ModuleDef = MoEDense):
     """The decoder, called inside :class:`Generator` (with its layer classes ``dense`` and ``moe_dense``):
     y (in,) or a tuple of parts -> (num_out,).
 
     Phase modulation: a mixture of E experts per layer (``expert_0``, ...) whose coefficients come from the
-    gating MLP (``gating``) on the phase features; otherwise a plain MLP (``decoder``). With
-    ``model.z_every_layer`` z is concatenated to the input of every layer after the first (MANN / MVAE),
-    so the latent reaches the output through every layer. Parameter names are those of checkpoints
-    written before ``z_every_layer`` existed.
+    gating MLP (``gating``) on the phase features; otherwise a plain MLP (``decoder``). z is also
+    concatenated to the input of every layer after the first (MANN / MVAE), so the latent reaches the output
+    through every layer and is not washed out. spec: the :class:`GeneratorSpec`.
     """
-    m = model_config
+    m = spec
     widths = tuple(m.decoder_widths) + (num_out,)
     dt = m.matmul_dtype
     if not m.phase_modulation:
-        return LatentMLP(widths, m.activation, m.z_every_layer, dt, dense, name="decoder")(y, z)
-    coefficients = MLP(tuple(m.gating_widths) + (m.num_experts,), m.activation, activate_last=False,
+        return LatentMLP(widths, dt, dense, name="decoder")(y, z)
+    coefficients = MLP(tuple(m.gating_widths) + (m.num_experts,), ACTIVATION, activate_last=False,
                        matmul_dtype=dt, last_activation="softmax", dense=dense, name="gating")(phase)
     for i, width in enumerate(widths):
-        if i > 0 and m.z_every_layer:
+        if i > 0:
             y = (y, z)
-        activation = m.activation if i < len(widths) - 1 else "identity"
+        activation = ACTIVATION if i < len(widths) - 1 else "identity"
         y = moe_dense(width, m.num_experts, dt, activation, name=f"expert_{i}")(y, coefficients)
     return y
 
 
 class LatentMLP(nn.Module):
-    """MLP y -> out with z also concatenated to the input of every layer after the first when
-    ``z_every_layer``; no activation after the last layer. Layers are named dense_0, dense_1, ... as in MLP."""
+    """MLP y -> out with z also concatenated to the input of every layer after the first; ELU between the
+    layers, none after the last. Layers are named dense_0, dense_1, ... as in MLP."""
 
     widths: tuple
-    activation: str = "elu"
-    z_every_layer: bool = True
     matmul_dtype: str = "float32"
     dense: ModuleDef = Dense
 
     @nn.compact
     def __call__(self, y, z):
         for i, width in enumerate(self.widths):
-            if i > 0 and self.z_every_layer:
+            if i > 0:
                 y = (y, z)
-            activation = self.activation if i < len(self.widths) - 1 else "identity"
+            activation = ACTIVATION if i < len(self.widths) - 1 else "identity"
             y = self.dense(width, self.matmul_dtype, activation, name=f"dense_{i}")(y)
         return y
 
@@ -303,11 +291,10 @@ class DiscriminatorSpec:
     feature_dim: int
 
 
-def discriminator_spec(config) -> DiscriminatorSpec:
-    """The :class:`DiscriminatorSpec` of a Config (``config.model.disc_*``, the joint count of ``config.data``)."""
-    m = config.model
-    return DiscriminatorSpec(short_window=m.disc_short_window, long_window=m.disc_long_window,
-                             widths=tuple(m.disc_widths), feature_dim=disc_feature_dim(config.data.num_joints))
+def discriminator_spec(model, num_joints: int) -> DiscriminatorSpec:
+    """The :class:`DiscriminatorSpec` of a config's ``model`` section (``disc_*``) for J = ``num_joints``."""
+    return DiscriminatorSpec(short_window=model.disc_short_window, long_window=model.disc_long_window,
+                             widths=tuple(model.disc_widths), feature_dim=disc_feature_dim(num_joints))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -321,13 +308,14 @@ class ModelSpec:
 
 def model_spec(config) -> ModelSpec:
     """The :class:`ModelSpec` of a Config: built once where training starts or a model is loaded."""
-    return ModelSpec(generator=generator_spec(config), discriminators=discriminator_spec(config))
+    return ModelSpec(generator=generator_spec(config.model, config.data),
+                     discriminators=discriminator_spec(config.model, config.data.num_joints))
 
 
 def generator_input_dims(spec) -> dict:
     """Sizes of the generator's per-step inputs (one example); ``spec``: a :class:`GeneratorSpec`."""
     s = features.state_dim(spec.num_joints, spec.num_contacts)
-    offset = spec.num_joints * 4 + 3 + (1 if spec.time_to_target_input else 0)
+    offset = spec.num_joints * 4 + 3 + 1  # the offsets and the time to the target
     return {"state": s, "target": s, "offset": offset, "phase": phase_dim(spec), "eps": spec.latent_dim}
 
 

@@ -1,19 +1,37 @@
-"""The rollout's latent noise: standard normal per step and direction, optionally correlated over steps
-(``model.noise_correlation``) and ramped in from the keyframes (``noise_ramp_steps``, an inference setting).
+"""The rollout's latent noise: standard normal per step and direction, drawn as a :class:`NoiseSpec` says:
+scaled, optionally correlated over steps and ramped in from the keyframes (sampling settings; the paper's
+sampling is the default, independent full noise at every step).
 """
 from __future__ import annotations
+
+import dataclasses
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["latent_noise", "noise_ramp", "correlated_noise"]
+__all__ = ["NoiseSpec", "latent_noise", "noise_ramp", "correlated_noise"]
 
 
-def latent_noise(key, noise, shape: tuple, dtype, noise_scale, noise_correlation=0.0, noise_ramp_steps=0):
+@dataclasses.dataclass(frozen=True)
+class NoiseSpec:
+    """How a rollout draws its latent noise (static, hashable; the defaults are the paper's sampling).
+
+    scale: factor on the noise (0: every sample is the prior's or posterior's mean path); correlation: rho in
+    [0, 1], each direction's noise correlated from one step to the next (:func:`correlated_noise`; 0:
+    independent per frame); ramp_steps: whole steps >= 0, the noise rising from 0 at each direction's first
+    step to full at this step (:func:`noise_ramp`; 0: full from the first step). Checked where they are used.
+    """
+
+    scale: float = 1.0
+    correlation: float = 0.0
+    ramp_steps: int = 0
+
+
+def latent_noise(key, noise, shape: tuple, dtype, spec: NoiseSpec = NoiseSpec()):
     """The standard normal latent noise `shape` = (num_steps, 2, latent_dim), drawn from `key` unless
-    `noise` is given, correlated over steps by `noise_correlation`, times `noise_scale` and times
-    :func:`noise_ramp` per step."""
+    `noise` is given, correlated over steps by ``spec.correlation``, times ``spec.scale`` and times
+    :func:`noise_ramp` per step (``spec``: a :class:`NoiseSpec`)."""
     if noise is None:
         eps = jax.random.normal(key, shape, dtype)
     else:
@@ -21,8 +39,8 @@ def latent_noise(key, noise, shape: tuple, dtype, noise_scale, noise_correlation
         if eps.shape != shape:
             raise ValueError(f"noise has shape {eps.shape}; rollout needs {shape} "
                              f"= (num_steps(spec, max_length), 2, latent_dim)")
-    ramp = jnp.asarray(noise_ramp(shape[0], noise_ramp_steps), dtype)[:, None, None]
-    return correlated_noise(eps, noise_correlation) * jnp.asarray(noise_scale, dtype) * ramp
+    ramp = jnp.asarray(noise_ramp(shape[0], spec.ramp_steps), dtype)[:, None, None]
+    return correlated_noise(eps, spec.correlation) * jnp.asarray(spec.scale, dtype) * ramp
 
 
 def noise_ramp(num_steps: int, ramp_steps: int) -> np.ndarray:
@@ -45,9 +63,8 @@ def correlated_noise(eps, rho: float):
 
     Every e_t stays standard normal (so the prior's spread is unchanged) and corr(e_t, e_s) = rho^|t-s|:
     rho = 0 returns ``eps`` itself (independent per frame, the paper's sampling), rho = 1 repeats n_0 on
-    every step (one draw per transition). Not in the paper: z from the posterior moves smoothly from frame
-    to frame at training (q follows the ground truth), and independent prior noise per frame does not.
-    rho: a static Python float in [0, 1].
+    every step (one draw per transition). Not in the paper: a sampling setting that spreads the samples
+    along the whole transition instead of frame by frame. rho: a static Python float in [0, 1].
     """
     rho = float(rho)
     if not 0.0 <= rho <= 1.0:

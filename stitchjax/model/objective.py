@@ -6,13 +6,10 @@
 Every mechanism beyond Eq. 9 is off by default and named in ``config.EXTENSIONS`` (``config.extensions_on``
 says which a config turns on). Optional, not in the paper: ``loss.foot_skate_weight`` x ``losses.foot_skate_loss``,
 ``loss.foot_velocity_weight`` x ``losses.foot_velocity_loss`` and ``loss.ground_penetration_weight`` x
-``losses.ground_penetration_loss``; ``loss.prior_best_of`` rolls the prior windows
-out several times and scores only the copy nearest the ground truth in the state and FK terms
-(:func:`prior_copies`, :func:`best_of_weights`).
+``losses.ground_penetration_loss``; ``loss.near_keyframe_weight`` on the frames next to the keyframes.
 
 L_kl: with ``model.posterior="next_frame"`` KL(q || p) of the posterior against the latent-interpolation
-prior (``loss.free_bits``, warm-up ``loss.kl_warmup_steps``, optional ``loss.prior_kl_weight`` KL(p || N(0, I)));
-with "none" the paper's KL(p || N(0, I)).
+prior (``loss.free_bits``, warm-up ``loss.kl_warmup_steps``); with "none" the paper's KL(p || N(0, I)).
 
 L_state, L_kl and L_fk are averaged over the forward and backward generators. The generator update
 minimises ``generator_loss`` (everything but L_D); the discriminator update minimises
@@ -34,13 +31,12 @@ import jax.numpy as jnp
 from stitchjax.model import batch as batch_lib
 from stitchjax.model import networks
 from stitchjax.model.losses import (disc_features, fk_loss, foot_height_contacts, foot_skate_loss,
-                                    foot_velocity_loss, ground_penetration_loss, kl_loss, lsgan_discriminator_loss, lsgan_generator_loss,
-                                    masked_mean, posterior_kl_loss, state_loss, stitching_loss)
+                                    foot_velocity_loss, ground_penetration_loss, kl_loss, lsgan_discriminator_loss,
+                                    lsgan_generator_loss, masked_mean, posterior_kl_loss, state_loss, stitching_loss)
 
 __all__ = [
     "generator_loss", "generator_rollouts", "generator_objective", "discriminator_loss", "direction_targets",
-    "kl_warmup", "reconstruction_weights", "near_keyframe_weights", "prior_copies", "window_position_errors",
-    "best_of_weights", "adversarial_generator_terms",
+    "kl_warmup", "near_keyframe_weights", "adversarial_generator_terms",
 ]
 
 
@@ -60,100 +56,60 @@ def generator_loss(params, phase_params, batch, key, spec, length, kl_scale=1.0,
     Returns:
       (total, terms, generated): total scalar; terms dict of scalars "state", "kl", "kl_prior", "fk",
       "stitch", "adv_g", "adv_g_short", "adv_g_long" (not without discriminators), "rotation", "velocity",
-      "contact" (and per-direction "state_forward", ...; "foot_skate" with ``loss.foot_skate_weight``; "prior_error_mean" and
-      "prior_error_best" with ``loss.prior_best_of`` > 1: the prior copies' mean distance per joint to the
-      ground truth, and that of the copies the state and FK terms score); generated = {"features" (B, T, F)
-      stop-gradient discriminator input of the stitched motion the adversarial terms saw, "mask" (B, T)}
-      for :func:`discriminator_loss`.
+      "contact" (and per-direction "state_forward", ...; "foot_skate", "foot_velocity", "ground_penetration"
+      with their weights); generated = {"features" (B, T, F) stop-gradient discriminator input of the stitched
+      motion the adversarial terms saw, "mask" (B, T)} for :func:`discriminator_loss`.
     """
-    batch_size = batch["rotations"].shape[0]
-    batch, prior_flags, num_prior = prior_copies(batch, spec.loss)
-    out, sampled = generator_rollouts(params, phase_params, batch, key, spec, length, prior_flags, rollout_batch)
-    if not num_prior:
-        return generator_objective(params, out, sampled, batch, length, spec.loss, spec.skeleton, kl_scale)
-    positions = out["global_positions"]
-    errors = window_position_errors(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"])
-    selected = best_of_weights(errors, num_prior, spec.loss.loss.prior_best_of)
-    total, terms, generated = generator_objective(params, out, sampled, batch, length, spec.loss, spec.skeleton,
-                                                  kl_scale, selected)
-    prior_errors = jax.lax.stop_gradient(errors[batch_size - num_prior:])
-    chosen = selected[batch_size - num_prior:]
-    terms["prior_error_mean"] = jnp.mean(prior_errors)
-    terms["prior_error_best"] = jnp.sum(prior_errors * chosen) / num_prior
-    generated = {name: value[:batch_size] for name, value in generated.items()}  # the batch's own windows
-    return total, terms, generated
+    out = generator_rollouts(params, phase_params, batch, key, spec, length, rollout_batch)
+    return generator_objective(params, out, batch, length, spec.loss, spec.skeleton, kl_scale)
 
 
-def generator_rollouts(params, phase_params, batch, key, spec, length, prior_flags=None,
-                       rollout_batch=batch_lib.rollout_batch) -> tuple[dict, dict]:
-    """The rollouts the generator objective scores: (out, sampled).
-
-    spec: the ``TrainSpec`` (its ``rollout`` spec is the model). out: ``rollout_batch`` (default
-    ``batch.rollout_batch``; the training step passes its own, same values) of the
-    batch, z from the posterior when ``model.posterior`` has one (the state, FK and KL terms); sampled: the
-    motion the stitching and adversarial terms see, ``out`` itself unless ``loss.prior_rollout`` adds a second
-    rollout with z from the prior. prior_flags: (B,) bool, the windows of ``out`` whose z comes from the prior
-    (:func:`prior_copies`); None = drawn at random (``loss.prior_sample_fraction``).
-    """
-    posterior_key, prior_key = jax.random.split(key)
-    out = rollout_batch(params, phase_params, batch, posterior_key, spec.rollout, length, prior_flags=prior_flags)
-    if spec.loss.loss.prior_rollout and spec.loss.posterior != "none":
-        return out, rollout_batch(params, phase_params, batch, prior_key, spec.rollout, length, posterior=False)
-    return out, out
+def generator_rollouts(params, phase_params, batch, key, spec, length, rollout_batch=batch_lib.rollout_batch) -> dict:
+    """The rollout the generator objective scores: ``rollout_batch`` (default ``batch.rollout_batch``; the
+    training step passes its own, same values) of the batch, z from the posterior when ``model.posterior`` has
+    one (the windows of ``loss.prior_sample_fraction`` from the prior). spec: the ``TrainSpec`` (its
+    ``rollout`` spec is the model)."""
+    posterior_key, _ = jax.random.split(key)  # the first of two keys: the randomness every run was trained with
+    return rollout_batch(params, phase_params, batch, posterior_key, spec.rollout, length)
 
 
-def generator_objective(params, out, sampled, batch, length, spec, skeleton, kl_scale=1.0, selected=None):
-    """Generator objective (paper Eq. 9 without L_D) of the rollouts of :func:`generator_rollouts`.
+def generator_objective(params, out, batch, length, spec, skeleton, kl_scale=1.0):
+    """Generator objective (paper Eq. 9 without L_D) of the rollout ``out`` of :func:`generator_rollouts`.
 
     params: the discriminators' params {"disc_short", "disc_long"} (others ignored); batch: the ground truth;
     spec: the ``LossSpec`` (weights, posterior, directions, discriminators); skeleton: the ``SkeletonSpec``
-    (scales, feet, up axis); kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`);
-    selected: (B,) weights of the windows in the state and FK terms on top of the reconstruction weights
-    (:func:`best_of_weights`), None = 1.
+    (scales, feet, up axis); kl_scale: factor on the KL weight (the warm-up, :func:`kl_warmup`).
     Returns (total, terms, generated) as :func:`generator_loss`.
     """
     lc = spec.loss
     n = out["forward"]["mask"].shape[1]
     directions = ["forward"] + (["backward"] if spec.bidirectional else [])
-    window_weights = None
-    if lc.prior_sample_reconstruction_weight != 1.0:
-        if spec.posterior == "none" or lc.prior_sample_fraction == 0:  # no window it could weigh
-            raise ValueError("loss.prior_sample_reconstruction_weight weighs the windows that "
-                             "loss.prior_sample_fraction draws from the prior: set loss.prior_sample_fraction > 0 "
-                             "with a posterior, or leave the weight at 1")
-        window_weights = reconstruction_weights(out["prior_sampled"], lc.prior_sample_reconstruction_weight)
-    if selected is not None:
-        window_weights = selected if window_weights is None else window_weights * selected
     terms = {}
     for name in directions:
         target = direction_targets(batch, length, n, name == "backward", skeleton)
-        for term, value in _direction_terms(out[name], target, lc, skeleton, spec.posterior,
-                                            window_weights).items():
+        for term, value in _direction_terms(out[name], target, lc, skeleton, spec.posterior).items():
             terms[f"{term}_{name}"] = value
     for term in ("state", "kl", "kl_penalty", "kl_prior", "fk", "rotation", "velocity", "contact"):
         terms[term] = sum(terms[f"{term}_{d}"] for d in directions) / len(directions)
-    if sampled is not out:
-        terms["stitch_posterior"] = jax.lax.stop_gradient(_overlap_stitching_loss(out, lc, skeleton))
-    terms["stitch"] = _overlap_stitching_loss(sampled, lc, skeleton)
+    terms["stitch"] = _overlap_stitching_loss(out, skeleton)
     if spec.discriminators is not None:  # model.discriminators=false: no adversarial term at all
-        terms.update(adversarial_generator_terms(params, sampled, spec, skeleton))
+        terms.update(adversarial_generator_terms(params, out, spec, skeleton))
     if lc.foot_skate_weight:
         terms["foot_skate"] = _foot_skate_term(out, batch, lc, skeleton)
     if lc.foot_velocity_weight:
-        terms["foot_velocity"] = _foot_velocity_term(out, batch, lc, skeleton)
+        terms["foot_velocity"] = _foot_velocity_term(out, batch, skeleton)
     if lc.ground_penetration_weight:
-        terms["ground_penetration"] = _ground_penetration_term(out, batch, lc, skeleton)
+        terms["ground_penetration"] = _ground_penetration_term(out, batch, skeleton)
     kl_weight = lc.kl_weight * kl_scale
-    prior_kl = lc.prior_kl_weight * terms["kl_prior"] if spec.posterior != "none" else 0.0
-    total = (terms["state"] + kl_weight * terms.pop("kl_penalty") + prior_kl + lc.stitch_weight * terms["stitch"]
+    total = (terms["state"] + kl_weight * terms.pop("kl_penalty") + lc.stitch_weight * terms["stitch"]
              + lc.fk_weight * terms["fk"] + lc.gen_weight * terms.get("adv_g", 0.0)
              + lc.foot_skate_weight * terms.get("foot_skate", 0.0)
              + lc.foot_velocity_weight * terms.get("foot_velocity", 0.0)
              + lc.ground_penetration_weight * terms.get("ground_penetration", 0.0))
     for name in directions:
         terms.pop(f"kl_penalty_{name}")
-    fake = disc_features(sampled["global_positions"], sampled["root_positions"], skeleton)
-    generated = {"features": jax.lax.stop_gradient(fake), "mask": sampled["mask"]}
+    fake = disc_features(out["global_positions"], out["root_positions"], skeleton)
+    generated = {"features": jax.lax.stop_gradient(fake), "mask": out["mask"]}
     return total, terms, generated
 
 
@@ -189,32 +145,30 @@ def discriminator_loss(params, phase_params, batch, key, spec, length, generated
     return ls.loss.disc_weight * terms["adv_d"], terms
 
 
-def _direction_terms(out_dir, target, loss_config, skeleton, posterior: str, window_weights=None):
+def _direction_terms(out_dir, target, loss_config, skeleton, posterior: str):
     """Per-direction terms: "state" and its parts, "fk", "kl" (the KL that is reported), "kl_penalty" (what
-    the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I))). window_weights: (B,) weights
-    of the state and FK terms (:func:`reconstruction_weights`), None = 1; the frames next to the keyframe are
-    weighted by :func:`near_keyframe_weights`."""
+    the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I)), reported). The frames next to
+    the keyframe are weighted by :func:`near_keyframe_weights` in the state and FK terms."""
     lc = loss_config
     mask = out_dir["mask"]
-    recon_mask = mask if window_weights is None else mask * window_weights[:, None]
+    recon_mask = mask
     if lc.near_keyframe_weight != 1.0:
         recon_mask = recon_mask * near_keyframe_weights(mask.shape[-1], lc.near_keyframe_weight,
                                                         lc.near_keyframe_frames)
     state, parts = state_loss(out_dir, target, recon_mask, lc)
-    prior_kl = kl_loss(out_dir["mu_blend"], out_dir["logvar_blend"], mask, lc.reduction)
+    prior_kl = kl_loss(out_dir["mu_blend"], out_dir["logvar_blend"], mask)
     if posterior == "none":
         kl = penalty = prior_kl  # the paper's term: the sampling distribution against N(0, I)
     else:
-        kl, penalty = posterior_kl_loss(out_dir, mask, lc.free_bits, lc.reduction)
-    fk = fk_loss(out_dir["global_positions"], target["global_positions"], recon_mask, skeleton.position_scale,
-                 lc.reduction)
+        kl, penalty = posterior_kl_loss(out_dir, mask, lc.free_bits)
+    fk = fk_loss(out_dir["global_positions"], target["global_positions"], recon_mask, skeleton.position_scale)
     return {"state": state, "kl": kl, "kl_penalty": penalty, "kl_prior": prior_kl, "fk": fk, **parts}
 
 
 def direction_targets(batch, length, num_steps: int, backward: bool, skeleton):
     """Ground truth for one direction's per-step outputs (``batch.direction_frames``; `skeleton` gives
     the velocity scale)."""
-    return batch_lib.direction_frames(batch, length, num_steps, backward, skeleton)
+    return batch_lib.direction_frames(batch, length, num_steps, backward, skeleton.velocity_scale)
 
 
 def kl_warmup(step, warmup_steps: int):
@@ -222,16 +176,6 @@ def kl_warmup(step, warmup_steps: int):
     if warmup_steps <= 0:
         return jnp.ones((), jnp.float32)
     return jnp.clip(jnp.asarray(step, jnp.float32) / float(warmup_steps), 0.0, 1.0)
-
-
-def reconstruction_weights(prior_sampled, weight: float):
-    """(B,) weight of each window in the reconstruction terms (state, FK): 1 where z came from the posterior,
-    ``weight`` (``loss.prior_sample_reconstruction_weight``) where ``loss.prior_sample_fraction`` drew it from
-    the prior. prior_sampled: (B,) bool, ``batch.rollout_batch(...)["prior_sampled"]``. The terms stay
-    means over frames, now weighted: sum(w * loss) / sum(w)."""
-    if weight < 0:
-        raise ValueError(f"loss.prior_sample_reconstruction_weight must be >= 0, got {weight}")
-    return jnp.where(prior_sampled, jnp.float32(weight), jnp.float32(1.0))
 
 
 def near_keyframe_weights(num_steps: int, weight: float, frames: int):
@@ -243,50 +187,6 @@ def near_keyframe_weights(num_steps: int, weight: float, frames: int):
         raise ValueError(f"loss.near_keyframe_weight must be >= 0 and loss.near_keyframe_frames >= 1, got "
                          f"{weight}, {frames}")
     return jnp.where(jnp.arange(num_steps) < frames, jnp.float32(weight), jnp.float32(1.0))
-
-
-def prior_copies(batch, spec):
-    """The windows a train step rolls out with ``loss.prior_best_of`` = K: (batch, prior_flags, num_prior).
-
-    With K > 1 the last num_prior = round(``loss.prior_sample_fraction`` x B) windows of the (shuffled) batch
-    draw z from the prior, and they are repeated K - 1 more times: the rows are the B - num_prior posterior
-    windows, then K blocks of the num_prior prior windows (B + (K - 1) num_prior rows); prior_flags (rows,)
-    bool marks the prior rows. With K = 1: (batch, None, 0), and prior_sample_fraction draws the prior
-    windows at random (``batch.prior_sample_flags``). spec: the ``LossSpec``.
-    """
-    best_of = spec.loss.prior_best_of
-    if best_of < 1:
-        raise ValueError(f"loss.prior_best_of must be >= 1, got {best_of}")
-    if best_of == 1:
-        return batch, None, 0
-    batch_size = batch["rotations"].shape[0]
-    num_prior = int(round(spec.loss.prior_sample_fraction * batch_size))
-    if spec.posterior == "none" or num_prior == 0:
-        raise ValueError(f"loss.prior_best_of={best_of} repeats the windows that loss.prior_sample_fraction draws "
-                         f"from the prior, and this batch of {batch_size} has none: use a posterior and "
-                         "loss.prior_sample_fraction x train.batch_size >= 1, or leave loss.prior_best_of at 1")
-    copies = {name: jnp.concatenate([value] + [value[batch_size - num_prior:]] * (best_of - 1), axis=0)
-              for name, value in batch.items()}
-    flags = jnp.arange(batch_size + (best_of - 1) * num_prior) >= batch_size - num_prior
-    return copies, flags, num_prior
-
-
-def window_position_errors(positions, true_positions, mask):
-    """(B,) mean distance per joint between generated and true global positions (B, T, J, 3) over each
-    window's valid frames (mask (B, T)), in the positions' units."""
-    distance = jnp.mean(jnp.linalg.norm(positions - true_positions, axis=-1), axis=-1)
-    mask = mask.astype(distance.dtype)
-    return jnp.sum(distance * mask, axis=-1) / jnp.maximum(jnp.sum(mask, axis=-1), 1.0)
-
-
-def best_of_weights(errors, num_prior: int, best_of: int):
-    """(rows,) 0 / 1 weight of each row of :func:`prior_copies` in the state and FK terms: 1 on every
-    posterior window and on the copy of each prior window with the lowest error, 0 on its other copies
-    (ties go to the first). errors (rows,): :func:`window_position_errors`, not differentiated."""
-    num_posterior = errors.shape[0] - best_of * num_prior
-    copies = jax.lax.stop_gradient(errors[num_posterior:]).reshape(best_of, num_prior)
-    chosen = jax.nn.one_hot(jnp.argmin(copies, axis=0), best_of, dtype=jnp.float32).T.reshape(-1)
-    return jnp.concatenate([jnp.ones((num_posterior,), jnp.float32), chosen])
 
 
 def adversarial_generator_terms(params, out, spec, skeleton) -> dict:
@@ -325,10 +225,9 @@ def _window_mask(motion_mask, window: int):
     return start + window <= count
 
 
-def _overlap_stitching_loss(out, loss_config, skeleton):
+def _overlap_stitching_loss(out, skeleton):
     ov = out["overlap"]
-    return stitching_loss(ov["forward_positions"], ov["backward_positions"], ov["mask"],
-                          skeleton.position_scale, loss_config.reduction)
+    return stitching_loss(ov["forward_positions"], ov["backward_positions"], ov["mask"], skeleton.position_scale)
 
 
 def _fixed_feet(skeleton, field: str):
@@ -347,30 +246,28 @@ def _foot_skate_term(out, batch, loss_config, skeleton):
     positions, mask = out["global_positions"], out["mask"]
     t = positions.shape[1]
     if loss_config.foot_skate_contacts == "truth":
-        return foot_skate_loss(positions, batch["contacts"][:, :t], mask, feet, skeleton.position_scale,
-                               loss_config.reduction)
+        return foot_skate_loss(positions, batch["contacts"][:, :t], mask, feet, skeleton.position_scale)
     if loss_config.foot_skate_contacts == "predicted":  # the generator's own contacts, as weights only
         return foot_skate_loss(positions, jax.lax.stop_gradient(out["contacts"]), mask, feet,
-                               skeleton.position_scale, loss_config.reduction, up_axis=skeleton.up_index)
+                               skeleton.position_scale, up_axis=skeleton.up_index)
     if skeleton.up_sign < 0:  # heights would be measured downwards
         raise ValueError(f"loss.foot_skate_contacts={loss_config.foot_skate_contacts!r} needs windows with a "
                          f"positive up axis; {skeleton.dataset!r} loads them {skeleton.up_axis!r} up (use 'truth')")
     up_axis = skeleton.up_index
     contacts = foot_height_contacts(positions, batch["global_positions"][:, :t], mask, feet, up_axis,
                                     either_end=loss_config.foot_skate_contacts == "height_either")
-    return foot_skate_loss(positions, contacts, mask, feet, skeleton.position_scale, loss_config.reduction,
-                           up_axis=up_axis)
+    return foot_skate_loss(positions, contacts, mask, feet, skeleton.position_scale, up_axis=up_axis)
 
 
-def _foot_velocity_term(out, batch, loss_config, skeleton):
+def _foot_velocity_term(out, batch, skeleton):
     """loss.foot_velocity_weight's term on the stitched motion `out`, with the feet of `skeleton`."""
     feet = _fixed_feet(skeleton, "loss.foot_velocity_weight")
     positions = out["global_positions"]
     return foot_velocity_loss(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"], feet,
-                              skeleton.position_scale, loss_config.reduction)
+                              skeleton.position_scale)
 
 
-def _ground_penetration_term(out, batch, loss_config, skeleton):
+def _ground_penetration_term(out, batch, skeleton):
     """loss.ground_penetration_weight's term on the stitched motion `out`, with the feet of `skeleton`."""
     feet = _fixed_feet(skeleton, "loss.ground_penetration_weight")
     if skeleton.up_sign < 0:  # heights would be measured downwards
@@ -378,4 +275,4 @@ def _ground_penetration_term(out, batch, loss_config, skeleton):
                          f"{skeleton.dataset!r} loads them {skeleton.up_axis!r} up (set it to 0)")
     positions = out["global_positions"]
     return ground_penetration_loss(positions, batch["global_positions"][:, :positions.shape[1]], out["mask"], feet,
-                                   skeleton.position_scale, skeleton.up_index, loss_config.reduction)
+                                   skeleton.position_scale, skeleton.up_index)

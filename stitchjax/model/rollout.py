@@ -22,24 +22,25 @@ never recompiles. Once a generator has made its frames it holds its last frame (
 targets). The backward sequence uses its own time direction: its root velocities are reversed-time
 velocities; a backward frame used as the forward generator's target gets its velocity negated.
 Latent interpolation weight (:func:`interpolation_weight`) for the step that makes the n-th of the N frames of
-a direction: gamma = n / N (``model.gamma_schedule="direction"``: 0 at the generator's start, 1 at the last
-frame it makes, next to the frame it targets) or n / (L + 1) ("transition").
+a direction: gamma = n / N, 0 at the generator's start, 1 at the last frame it makes, next to the frame it
+targets.
 
 Update anchor (``model.update_anchor``): each step's predicted update (rotation update, root velocity) is added to
 the current frame ("current", the paper's Eq. for the decoder's output), or to the next frame of the straight path
 from the current frame to the frame it heads for ("interpolation", :func:`interpolation_anchor`; the delta mode of
 the Delta-interpolator, an extension): with a zero update the rollout is then the interpolation of the keyframes.
 
-Latent source: with ``ground_truth`` (training, ``model.posterior="next_frame"``) every step draws z from the
+Latent source: with the ground truth (training, ``model.posterior="next_frame"``) every step draws z from the
 posterior q(z | h, ground-truth state of the frame it makes); without it z comes from the prior p (inference).
+The latent noise is drawn as a ``noise.NoiseSpec`` says (scale, correlation, ramp: sampling settings).
 
-Settings: every function reads a :class:`RolloutSpec` (L's scan, K, the gamma schedule, the generator's
-sizes and switches), built once by :func:`rollout_spec` where the train step is made (``specs.train_spec``)
-or a model is loaded (``trained_model.Model.rollout_spec``), never the whole Config.
+Settings: every function reads a :class:`RolloutSpec` (L's scan, K, the generator's sizes and switches),
+built once by :func:`rollout_spec` where the train step is made (``specs.train_spec``) or a model is loaded
+(``trained_model.Model.rollout_spec``), never the whole Config.
 
-The steps run the generator through a hook (:class:`StepHook`: the plain generator, no extras); a caller may
-give another hook with per-step extras, and a ``jax.checkpoint`` policy for the scan body (what the backward
-pass keeps). Neither changes the values.
+The steps run the generator through a hook (:class:`StepHook`: the plain generator, no extras, every
+intermediate kept for the backward pass); a caller may give another hook with per-step extras or a
+``jax.checkpoint`` policy for the scan body (what the backward pass keeps). Neither changes the values.
 """
 from __future__ import annotations
 
@@ -51,12 +52,12 @@ import jax.numpy as jnp
 from stitchjax.data import features as F
 from stitchjax.model import networks
 from stitchjax.model import stitching
-from stitchjax.model.noise import latent_noise
+from stitchjax.model.noise import NoiseSpec, latent_noise
 from stitchjax.data import phase as phase_lib
 from stitchjax import rotations as R
 
 __all__ = ["RolloutSpec", "rollout_spec", "rollout", "num_steps", "schedule", "interpolation_weight", "StepHook",
-           "aligning_step", "keyframe_velocity", "keyframe_states", "interpolation_anchor"]
+           "aligning_step", "keyframe_states", "interpolation_anchor"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -64,10 +65,8 @@ class RolloutSpec:
     """What the rollout reads, resolved once from a Config (:func:`rollout_spec`; static, hashable).
 
     generator: the generators' sizes and switches (``networks.GeneratorSpec``). From ``config.model``:
-    bidirectional, bidirectional_aligning (Eq. 2 ablations), stitch_buffer K, gamma_schedule (Eq. 1's
-    gamma: "direction" or "transition"), keyframe_velocity, contact_input_gradient, stop_phase_gradient,
-    noise_correlation, posterior_horizon, update_anchor. From ``config.data``: parents, position_scale,
-    velocity_scale, fps.
+    bidirectional, bidirectional_aligning (Eq. 2 ablations), stitch_buffer K, contact_input_gradient,
+    update_anchor. From ``config.data``: parents, position_scale, velocity_scale, fps.
     prior_sample_fraction: ``loss.prior_sample_fraction``.
     """
 
@@ -75,12 +74,7 @@ class RolloutSpec:
     bidirectional: bool
     bidirectional_aligning: bool
     stitch_buffer: int
-    gamma_schedule: str
-    keyframe_velocity: str
     contact_input_gradient: bool
-    stop_phase_gradient: bool
-    noise_correlation: float
-    posterior_horizon: int
     parents: tuple
     position_scale: float
     velocity_scale: float
@@ -93,11 +87,9 @@ def rollout_spec(config) -> RolloutSpec:
     """The :class:`RolloutSpec` of a Config: built once where the train step is made or a model is loaded."""
     m, data = config.model, config.data
     return RolloutSpec(
-        generator=networks.generator_spec(config), bidirectional=m.bidirectional,
+        generator=networks.generator_spec(m, data), bidirectional=m.bidirectional,
         bidirectional_aligning=m.bidirectional_aligning, stitch_buffer=m.stitch_buffer,
-        gamma_schedule=m.gamma_schedule, keyframe_velocity=m.keyframe_velocity,
-        contact_input_gradient=m.contact_input_gradient, stop_phase_gradient=m.stop_phase_gradient,
-        noise_correlation=m.noise_correlation, posterior_horizon=m.posterior_horizon, parents=tuple(data.parents),
+        contact_input_gradient=m.contact_input_gradient, parents=tuple(data.parents),
         position_scale=data.position_scale, velocity_scale=data.velocity_scale, fps=data.fps,
         prior_sample_fraction=config.loss.prior_sample_fraction, update_anchor=m.update_anchor)
 
@@ -119,17 +111,12 @@ def schedule(spec, length):
     return h, k, h + k, length - h + k
 
 
-def interpolation_weight(spec, frame_number, frames_in_direction, length):
+def interpolation_weight(frame_number, frames_in_direction):
     """Latent interpolation weight gamma (paper Eq. 1) for the step making a direction's ``frame_number``-th
-    frame (1-based) of ``frames_in_direction``: n / N ("direction") or n / (L + 1) ("transition"), in [0, 1]."""
+    frame (1-based) of ``frames_in_direction``: n / N, in [0, 1]."""
     dtype = jnp.float32
     n = jnp.asarray(frame_number).astype(dtype)
-    if spec.gamma_schedule == "transition":
-        total = jnp.asarray(length).astype(dtype) + 1.0
-    elif spec.gamma_schedule == "direction":
-        total = jnp.maximum(jnp.asarray(frames_in_direction).astype(dtype), 1.0)
-    else:
-        raise ValueError(f"model.gamma_schedule={spec.gamma_schedule!r}: use 'direction' or 'transition'")
+    total = jnp.maximum(jnp.asarray(frames_in_direction).astype(dtype), 1.0)
     return jnp.clip(n / total, 0.0, 1.0)
 
 
@@ -160,21 +147,25 @@ def interpolation_anchor(current, target, distance, keyframe, keyframe_distance)
 def _phase(spec, phase_params, state):
     if not spec.generator.phase_modulation or phase_params is None:
         return jnp.zeros(state.shape[:-1] + (networks.phase_dim(spec.generator),), state.dtype)
-    if spec.stop_phase_gradient:
-        state = jax.lax.stop_gradient(state)
+    state = jax.lax.stop_gradient(state)  # the phase network is frozen and only conditions the gating
     return phase_lib.phase_features(phase_params, state)
 
 
 class StepHook:
-    """The rollout's hook for per-step extras of its generator steps (``rollout(..., hook=...)``); this one adds
-    none. Another hook may feed each step more inputs and take more out of it, with the same values.
+    """How the rollout's scan runs its generator steps (``rollout(..., hook=...)``); this one adds no per-step
+    extras. Another hook may feed each step more inputs and take more out of it, with the same values.
 
+    checkpoint_policy: the ``jax.checkpoint`` policy of the scan body (what differentiating the scan keeps for
+    the backward pass); None: no checkpointing, every intermediate is kept.
     scan_inputs(truth): the pytree the scan slices per step (leading num_steps axis), holding the posterior
     inputs ``truth`` (or None); truth(xs_i): a step's posterior inputs from its slice; apply(generator spec,
     name, params, args, xs_i) -> ((carry, outputs), extras or None): generator ``name``'s step;
     stack(records): what the scan stacks of a step's {generator: extras}; finish(stacked): what rollout returns
     beside its result (None: the result alone).
     """
+
+    def __init__(self, checkpoint_policy=None):
+        self.checkpoint_policy = checkpoint_policy
 
     def scan_inputs(self, truth):
         return truth
@@ -192,18 +183,19 @@ class StepHook:
         return None
 
 
-def _step(params, phase_params, spec, carry, current, target, distance, gamma, eps, next_state=None,
-          use_prior=None, apply=None, anchor=None):
+def _step(params, phase_params, spec, carry, current, target, inputs, apply=None, anchor=None):
     """One generator step: frame dicts (rotations (J,4), root (3,), velocity (3,), contacts (C,)).
 
+    inputs: (distance, gamma, eps, next_state, use_prior): distance () the frames to ``target``; gamma ()
+    the latent interpolation weight; eps (latent,) noise; next_state (S,) ground-truth state of the frame this
+    step makes (posterior training) or None (prior); use_prior None or () bool, True = z from the prior even
+    with next_state (``Generator``).
     anchor: None (the update is added to ``current``) or {"rotations", "root"}, the frame the update is added
     to (:func:`interpolation_anchor`); the new frame's velocity is then its root's movement from ``current``.
-
-    next_state: (S,) ground-truth state of the frame this step makes (posterior training) or None (prior);
-    use_prior: None or () bool, True = z from the prior even with next_state (``Generator``).
     apply: None (the plain generator), or apply(params, args) -> ((carry, outputs), extras), a hook's
     (:class:`StepHook`); the fourth output is the extras (None without a hook).
     """
+    distance, gamma, eps, next_state, use_prior = inputs
     contacts, target_contacts = current["contacts"], target["contacts"]
     if not spec.contact_input_gradient:
         contacts, target_contacts = jax.lax.stop_gradient(contacts), jax.lax.stop_gradient(target_contacts)
@@ -211,8 +203,7 @@ def _step(params, phase_params, spec, carry, current, target, distance, gamma, e
     target_state = F.state_vector(target["rotations"], target["velocity"], target_contacts)
     offset = F.offset_features(current["rotations"], current["root"], target["rotations"], target["root"],
                                spec.position_scale)
-    if spec.generator.time_to_target_input:
-        offset = jnp.concatenate([offset, (distance / spec.fps)[None].astype(offset.dtype)])
+    offset = jnp.concatenate([offset, (distance / spec.fps)[None].astype(offset.dtype)])  # time to the target
     phase = _phase(spec, phase_params, state)
     args = (carry, state, target_state, offset, gamma, phase, eps, next_state, use_prior)
     if apply is None:
@@ -286,16 +277,16 @@ def aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, xs_i=No
     def direction_step(name, carry_d, frame, target, distance, eps, truth):
         """One step of one generator; it holds its frame once it has made plan["n_<name>"] frames."""
         count = plan[f"n_{name}"]
-        gamma = interpolation_weight(spec, i + 1, count, length).astype(dtype)
+        gamma = interpolation_weight(i + 1, count).astype(dtype)
         apply = None if hook is None else (lambda params, args: hook.apply(spec.generator, name, params, args, xs_i))
         anchor = None
         if m.update_anchor == "interpolation":
             keyframe = _reverse(plan["target"] if name == "forward" else plan["start"])
             anchor = interpolation_anchor(frame, target, _frames_between(plan, name, i, aligned), keyframe,
                                           length + 1 - i)
+        inputs = (distance, gamma, eps, truth, plan.get("use_prior"))
         new_carry, new_frame, gaussians, recorded = _step(gen_params[name], phase_params, spec, carry_d, frame,
-                                                          target, distance, gamma, eps, truth,
-                                                          plan.get("use_prior"), apply, anchor)
+                                                          target, inputs, apply, anchor)
         carry_d, frame = _hold(i < count, (new_carry, new_frame), (carry_d, frame))
         out[name] = {**frame, **gaussians}
         if recorded is not None:
@@ -312,38 +303,31 @@ def aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, xs_i=No
     return (fwd_carry, bwd_carry, fwd, bwd), out
 
 
-def rollout(gen_params, phase_params, start, target, offsets, key, spec, length, max_length: int, noise=None,
-            ground_truth=None, noise_scale=1.0, noise_correlation=None, use_prior=None, noise_ramp_steps: int = 0,
-            hook=None, checkpoint_policy=None):
+def rollout(gen_params, phase_params, keyframes, key, spec, length, max_length: int, noise=NoiseSpec(),
+            latent=None, hook=None):
     """Generate one transition.
 
     Args:
       gen_params: {"forward": ..., "backward": ...} generator params (other keys ignored).
       phase_params: phase network params (``phase.init_phase_params``), or None for zero phase features.
-      start, target: keyframes, dicts with "rotations" (J, 4) local quats, "root_position" (3,) file
-        units, "contacts" (C,).
-      offsets: (J, 3) bone offsets (the root row is ignored).
+      keyframes: (start, target, offsets): start and target dicts with "rotations" (J, 4) local quats,
+        "root_position" (3,) file units, "contacts" (C,); offsets (J, 3) bone offsets (the root row is ignored).
       key: PRNG key for the latent noise.
       spec: :class:`RolloutSpec` (static).
       length: () int, traced: L generated frames, 1 <= L <= max_length (clipped into that range).
       max_length: static maximum L (training: window - 2).
-      noise: optional (num_steps(spec, max_length), 2, latent_dim) standard normal latent noise
-        ([:, 0] forward, [:, 1] backward) used instead of drawing it from ``key`` (latent search).
-      ground_truth: optional {"forward", "backward"} (num_steps, S) ground-truth states of the frames each
-        step makes (``batch.next_frame_states``): z is drawn from the posterior (model.posterior must not be
-        "none"). None: z from the prior; the ground truth is never read.
-      noise_scale: factor on the latent noise (0 = every sample is the prior's / posterior's mean).
-      use_prior: optional () bool, with ground_truth: True draws z from the prior anyway, as at inference
-        (``loss.prior_sample_fraction``); the posterior's Gaussians are still returned.
-      noise_correlation: static rho in [0, 1], the correlation of each direction's noise from one step to
-        the next (``noise.correlated_noise``); 0 = independent per frame, as in the paper; None = the
-        model's ``model.noise_correlation`` (what training uses).
-      noise_ramp_steps: static int >= 0; each direction's noise rises linearly from 0 at its first step to
-        full at this step (``noise.noise_ramp``); 0 = full noise from the first step, as in the paper.
-      hook: optional :class:`StepHook`, per-step extras of the generator steps; when its ``finish`` gives
-        something, the result is (dict, that).
-      checkpoint_policy: optional ``jax.checkpoint`` policy of the scan body (what differentiating the scan
-        keeps for the backward pass); None: no checkpointing (every intermediate is kept).
+      noise: a ``noise.NoiseSpec`` (static): the noise's scale (0 = every sample is the prior's / posterior's
+        mean), its correlation from one step to the next and its ramp from each keyframe; the default is the
+        paper's sampling.
+      latent: optional dict of what the latent z is drawn from besides ``key``: "noise" (num_steps(spec,
+        max_length), 2, latent_dim) standard normal noise ([:, 0] forward, [:, 1] backward) used instead of
+        drawing it from ``key`` (latent search); "forward" and optionally "backward" (num_steps, S) the
+        ground-truth states of the frames each step makes (``batch.next_frame_states``): z is drawn from the
+        posterior (model.posterior must not be "none"); with them "use_prior" () bool: True draws z from
+        the prior anyway, as at inference (``loss.prior_sample_fraction``), the posterior's Gaussians still
+        returned. Without the ground truth z comes from the prior and no ground truth is read.
+      hook: optional :class:`StepHook`: per-step extras of the generator steps (when its ``finish`` gives
+        something, the result is (dict, that)) and the scan body's ``jax.checkpoint`` policy.
     Returns dict (T_out = max_length + 2):
       "rotations" (T_out, J, 4), "root_positions" (T_out, 3), "contacts" (T_out, C),
       "global_positions" (T_out, J, 3): the stitched motion, frame 0 = start and frame L + 1 = target
@@ -355,34 +339,34 @@ def rollout(gen_params, phase_params, start, target, offsets, key, spec, length,
       "overlap": "forward_positions", "backward_positions" (2K', J, 3) FK positions of the two sequences
         on the overlapping frames (K' = max(K, 1)), "mask" (2K',) bool.
     """
+    start, target, offsets = keyframes
+    latent = {} if latent is None else latent
     length = jnp.clip(jnp.asarray(length, jnp.int32), 1, max_length)
     n = num_steps(spec, max_length)
     split = schedule(spec, length)
-    if noise_correlation is None:
-        noise_correlation = spec.noise_correlation
-    eps = latent_noise(key, noise, (n, 2, spec.generator.latent_dim), start["rotations"].dtype, noise_scale,
-                       noise_correlation, noise_ramp_steps)
-    truth = _posterior_inputs(spec, ground_truth)
-    plan = _plan(spec, start, target, length, split, use_prior)
+    eps = latent_noise(key, latent.get("noise"), (n, 2, spec.generator.latent_dim), start["rotations"].dtype, noise)
+    truth = _posterior_inputs(spec, latent)
+    plan = _plan(start, target, split, length, latent.get("use_prior"))
     hook = StepHook() if hook is None else hook
-    seq = _scan(gen_params, phase_params, spec, plan, eps, truth, hook, checkpoint_policy)
+    seq = _scan(gen_params, phase_params, spec, plan, eps, truth, hook)
     result = stitching.stitched_result(seq, plan, split, start, target, offsets, spec, max_length + 2)
     extras = hook.finish(seq["records"])
     return result if extras is None else (result, extras)
 
 
-def _posterior_inputs(spec, ground_truth):
-    """(forward, backward) posterior inputs of :func:`rollout`'s ``ground_truth``, or None (z from the prior)."""
-    if ground_truth is not None and spec.generator.posterior == "none":
-        raise ValueError("ground_truth given but model.posterior='none': the model has no posterior")
-    return (None if ground_truth is None else
-            (ground_truth["forward"], ground_truth.get("backward", ground_truth["forward"])))
+def _posterior_inputs(spec, latent: dict):
+    """(forward, backward) posterior inputs of :func:`rollout`'s ``latent``, or None (z from the prior)."""
+    if "forward" not in latent:
+        return None
+    if spec.generator.posterior == "none":
+        raise ValueError("ground truth given but model.posterior='none': the model has no posterior")
+    return latent["forward"], latent.get("backward", latent["forward"])
 
 
-def _plan(spec, start, target, length, split, use_prior) -> dict:
+def _plan(start, target, split, length, use_prior) -> dict:
     """The scan's plan (:func:`aligning_step`): length, frames per direction (split = :func:`schedule`'s),
     the keyframes as generator frames and, when given, use_prior."""
-    start_frame, target_frame = keyframe_states(spec, start, target, length)
+    start_frame, target_frame = keyframe_states(start, target)
     plan = {"length": length, "n_forward": split[2], "n_backward": split[3], "start": start_frame,
             "target": target_frame}
     if use_prior is not None:
@@ -390,17 +374,18 @@ def _plan(spec, start, target, length, split, use_prior) -> dict:
     return plan
 
 
-def _scan(gen_params, phase_params, spec, plan, eps, truth, hook, checkpoint_policy) -> dict:
+def _scan(gen_params, phase_params, spec, plan, eps, truth, hook) -> dict:
     """The rollout's ``lax.scan`` of :func:`aligning_step` over the num_steps steps of ``eps``: each output
-    with a leading (num_steps,) axis, and "records" the hook's stacked extras."""
+    with a leading (num_steps,) axis, and "records" the hook's stacked extras; the body checkpointed by the
+    hook's ``checkpoint_policy``."""
     def body(carry, xs):
         i, eps_i, xs_i = xs
         carry, out = aligning_step(gen_params, phase_params, spec, carry, i, eps_i, plan, xs_i, hook)
         out["records"] = hook.stack(out["records"])
         return carry, out
 
-    if checkpoint_policy is not None:
-        body = jax.checkpoint(body, policy=checkpoint_policy)
+    if hook.checkpoint_policy is not None:
+        body = jax.checkpoint(body, policy=hook.checkpoint_policy)
 
     carry0 = networks.initial_carry(spec.generator, plan["start"]["rotations"].dtype)
     steps = jnp.arange(eps.shape[0], dtype=jnp.int32)
@@ -409,27 +394,13 @@ def _scan(gen_params, phase_params, spec, plan, eps, truth, hook, checkpoint_pol
     return seq
 
 
-def keyframe_velocity(spec, start_root, target_root, length):
-    """(3,) scaled root velocity both keyframes are given (``model.keyframe_velocity``), in forward time.
-
-    "zero": 0, the paper's poses alone. "mean": the transition's mean root velocity,
-    (target root - start root) / (L + 1) / data.velocity_scale, which the two keyframes and L determine.
-    """
-    if spec.keyframe_velocity == "zero":
-        return jnp.zeros_like(start_root)
-    steps = (jnp.asarray(length) + 1).astype(start_root.dtype)
-    return (target_root - start_root) / (steps * spec.velocity_scale)
-
-
-def keyframe_states(spec, start: dict, target: dict, length) -> tuple[dict, dict]:
-    """The keyframes as generator frames (rotations, root, contacts, root velocity): the start keyframe in
-    forward time and the target keyframe in the backward generator's reversed time (velocity negated)."""
-    velocity = keyframe_velocity(spec, start["root_position"], target["root_position"], length)
+def keyframe_states(start: dict, target: dict) -> tuple[dict, dict]:
+    """The keyframes as generator frames (rotations, root, contacts, root velocity 0: a keyframe is a pose): the
+    start keyframe in forward time and the target keyframe in the backward generator's reversed time."""
+    velocity = jnp.zeros_like(start["root_position"])
 
     def frame(keyframe, v):
         return {"rotations": keyframe["rotations"], "root": keyframe["root_position"], "velocity": v,
                 "contacts": keyframe["contacts"]}
 
     return frame(start, velocity), frame(target, -velocity)
-
-

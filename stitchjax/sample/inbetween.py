@@ -42,6 +42,7 @@ import numpy as np
 
 from stitchjax.model import losses
 from stitchjax.model import rollout as rollout_lib
+from stitchjax.model.noise import NoiseSpec
 from stitchjax import rotations as R
 from stitchjax import skeleton as skeleton_lib
 from stitchjax.data.bvh import Motion
@@ -86,9 +87,8 @@ def _compiled_sampler(spec, length: int, num_candidates: int, noise_scale: float
     outside, so plain sampling and search share compilations.
     """
     def one(params, phase_params, start, target, offsets, key):
-        out = rollout_lib.rollout(params, phase_params, start, target, offsets, key, spec, length, length,
-                                  noise_scale=noise_scale, noise_correlation=noise_correlation,
-                                  noise_ramp_steps=noise_ramp_steps)
+        out = rollout_lib.rollout(params, phase_params, (start, target, offsets), key, spec, length, length,
+                                  NoiseSpec(noise_scale, noise_correlation, noise_ramp_steps))
         return {"rotations": out["rotations"], "root_positions": out["root_positions"],
                 "contacts": out["contacts"], "global_positions": out["global_positions"],
                 "stitch_loss": stitch_losses(out)}
@@ -138,13 +138,13 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
     of M x S samples, and the S with the lowest stitching loss are returned in increasing order.
     noise_scale: factor on the latent noise (0: every sample is the same, the prior's mean path).
     noise_correlation: in [0, 1], the noise's correlation from one frame to the next (0: independent per
-      frame, the paper's; ``noise.correlated_noise``); None: the model's ``model.noise_correlation``.
+      frame, the paper's; ``noise.correlated_noise``); None: 0.
     noise_ramp_steps: >= 0; the noise of each direction rises linearly from 0 at the frame next to its
       keyframe to full at this many steps (0: full from the first frame, the paper's; ``noise.noise_ramp``).
     """
     _check_request(model, length, num_samples, search, warn=True)
     if noise_correlation is None:
-        noise_correlation = model.rollout_spec.noise_correlation
+        noise_correlation = 0.0
     noise = check_sampling({"noise_scale": noise_scale, "noise_correlation": noise_correlation,
                             "noise_ramp_steps": noise_ramp_steps})  # InbetweenError naming a bad one
     candidates = num_samples * max(int(search), 1)

@@ -63,8 +63,8 @@ def noise_shape(model: Model, length: int) -> tuple:
 
 def _rollout_with_noise(params, phase_params, start, target, offsets, noise, spec, length):
     """``rollout.rollout`` with its latent noise (n, 2, latent) given instead of drawn from a key."""
-    return rollout_lib.rollout(params, phase_params, start, target, offsets, jax.random.PRNGKey(0), spec,
-                               length, length, noise=noise)
+    return rollout_lib.rollout(params, phase_params, (start, target, offsets), jax.random.PRNGKey(0), spec,
+                               length, length, latent={"noise": noise})
 
 
 @functools.lru_cache(maxsize=16)

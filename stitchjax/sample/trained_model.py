@@ -91,10 +91,8 @@ class Model:
 
     @property
     def paper_sampling(self) -> dict:
-        """The paper's sampling: noise x1, full from the first frame, at the correlation the model was trained
-        with (``model.noise_correlation``, 0 in the paper: independent per frame)."""
-        return {"noise_scale": 1.0, "noise_correlation": float(self.config.model.noise_correlation),
-                "noise_ramp_steps": 0}
+        """The paper's sampling: noise x1, full from the first frame, independent per frame."""
+        return {"noise_scale": 1.0, "noise_correlation": 0.0, "noise_ramp_steps": 0}
 
     @property
     def sampling(self) -> dict:
@@ -197,7 +195,8 @@ def _sampling_abstract(config) -> dict:
     wanted = {"params": {"forward": generators["forward"], "backward": generators["backward"]}}
     if config.model.phase_modulation:
         wanted["phase_params"] = jax.eval_shape(
-            lambda k: phase.init_phase_params(k, features.state_dim(config), config.phase), key)
+            lambda k: phase.init_phase_params(k, features.state_dim(config.data.num_joints, config.data.num_contacts),
+                                              config.phase), key)
     sharding = parallel.replicated(parallel.make_mesh())
     return jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), wanted)
 
@@ -405,7 +404,8 @@ def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None
     params = jax.jit(lambda k: networks.init_params(spec, k))(key)
     phase_params = None
     if config.model.phase_modulation:
-        phase_params = phase.init_phase_params(jax.random.fold_in(key, 1), features.state_dim(config),
+        phase_params = phase.init_phase_params(jax.random.fold_in(key, 1),
+                                               features.state_dim(config.data.num_joints, config.data.num_contacts),
                                                config.phase)
     fields = _facts_fields(config, None)
     if joint_names is not None:

@@ -1,6 +1,6 @@
 """Training: the train state, one jitted train step, and a run set up around them.
 
-Size (~415 lines): one job, the train state and the step that updates it; the loop that runs it is runner.py.
+Size (~440 lines): one job, the train state and the step that updates it; the loop that runs it is runner.py.
 
 The loop that runs the steps (``runner.py``), the schedule (``schedule.py``), which state a run starts from
 (``resume.py``), devices (``parallel.py``), records (``reporting.py``) and validation (``validation.py``) live
@@ -10,9 +10,9 @@ Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `tr
 
 - `TrainState`: step, params {"forward", "backward", "disc_short", "disc_long"}, phase_params (frozen after
   pretraining), gen_opt_state, disc_opt_state, key (a raw uint32 PRNG key).
-- `create_train_state(config, key, phase_params, mesh)`: initialisation inside `jax.jit`; the same function
+- `create_train_state(spec, key, phase_params, mesh)`: initialisation inside `jax.jit`; the same function
   under `jax.eval_shape` gives the abstract state a checkpoint is restored onto.
-- `make_train_step(config, mesh)` -> `train_step(state, dataset, length) -> (state, metrics)`, jitted with the
+- `make_train_step(spec, mesh)` -> `train_step(state, dataset, length) -> (state, metrics)`, jitted with the
   state donated. The whole training set lives on the device(s) as arrays with a leading window axis; each
   step draws its batch indices on device from `fold_in(state.key, state.step)`, gathers the windows, runs ONE
   rollout per generator (inside `objective.generator_loss`), and updates both generators and both
@@ -20,8 +20,10 @@ Pieces (pure functions over explicit pytrees; `bin/train` is a thin CLI over `tr
   the progressive schedule never recompiles. The train step alone chooses the fast paths of `config.train`
   (`stitchjax.accel.fast_rollout`) and, through `specs.train_spec`, accel's generator layers
   (`stitchjax.accel.matmul`); the model's rollout runs the plain model.
+- Every function below `train` reads the run's `specs.TrainSpec` (`spec`), built once by `train` from the
+  `Config`; none reads the whole `Config`.
 - `schedule.transition_length(step, steps_per_epoch, train_config)`: the progressive length (stitchjax.train.schedule).
-- `train(config, workdir, ...)`: `resume.restore_or_init` (resume from the newest good checkpoint, start from
+- `train(config, workdir, ...)`, the entry point: `resume.restore_or_init` (resume from the newest good checkpoint, start from
   another run with `init_from`, or pretrain the phase network and initialise), `runner.run_loop` (progress bar,
   metrics JSON lines, periodic checkpoints, NaN guard, Ctrl-C / SIGTERM save), then `runner.finish` (report.md
   and loss_curves.png).
@@ -96,21 +98,21 @@ def split_params(params: dict) -> tuple[dict, dict]:
     return {k: params[k] for k in GENERATORS}, {k: params[k] for k in DISCRIMINATORS}
 
 
-def create_train_state(config, key: jax.Array, phase_params: Any = None, mesh: Mesh | None = None) -> TrainState:
-    """Fresh state (step 0): networks initialised from `key`, optimiser states zero, replicated on `mesh`.
+def create_train_state(spec, key: jax.Array, phase_params: Any = None, mesh: Mesh | None = None) -> TrainState:
+    """Fresh state (step 0) of a `specs.TrainSpec`: networks initialised from `key`, optimiser states zero,
+    replicated on `mesh`.
 
     phase_params: pretrained phase network params, or None to initialise it randomly (phase.init_phase_params)
     — the value when phase modulation is off, and the structure used for restoring.
     """
-    optimizer = make_optimizer(config.train)
+    optimizer = make_optimizer(spec.train)
     mesh = parallel.make_mesh() if mesh is None else mesh
     init_key, phase_key, state_key = jax.random.split(key, 3)
-    spec = networks.model_spec(config)
 
     def init(init_key, phase_key, state_key, phase_params):
-        params = networks.init_params(spec, init_key)
+        params = networks.init_params(spec.model, init_key)
         if phase_params is None:
-            phase_params = init_phase_params(config, phase_key)
+            phase_params = init_phase_params(spec, phase_key)
         generators, discriminators = split_params(params)
         return TrainState(
             step=jnp.zeros((), jnp.int32),
@@ -124,20 +126,22 @@ def create_train_state(config, key: jax.Array, phase_params: Any = None, mesh: M
     return jax.jit(init, out_shardings=parallel.replicated(mesh))(init_key, phase_key, state_key, phase_params)
 
 
-def init_phase_params(config, key: jax.Array) -> Any:
-    """Randomly initialised phase network params ({} when the model does not use one)."""
-    return phase.init_phase_params(key, state_dim(config), config.phase)
+def init_phase_params(spec, key: jax.Array) -> Any:
+    """Randomly initialised phase network params of a `specs.TrainSpec`."""
+    return phase.init_phase_params(key, state_dim(spec), spec.phase)
 
 
-def state_dim(config) -> int:
-    """Per-frame character state size J*4 + 3 + C (local quats, root velocity, contacts)."""
-    return features.state_dim(config)
+def state_dim(spec) -> int:
+    """Per-frame character state size J*4 + 3 + C (local quats, root velocity, contacts) of a `specs.TrainSpec`."""
+    generator = spec.model.generator
+    return features.state_dim(generator.num_joints, generator.num_contacts)
 
 
-def abstract_train_state(config, mesh: Mesh | None = None) -> TrainState:
-    """ShapeDtypeStructs (with replicated shardings) of the train state: the target for `restore`."""
+def abstract_train_state(spec, mesh: Mesh | None = None) -> TrainState:
+    """ShapeDtypeStructs (with replicated shardings) of the train state of a `specs.TrainSpec`: the target for
+    `restore`."""
     mesh = parallel.make_mesh() if mesh is None else mesh
-    shapes = jax.eval_shape(lambda key: create_train_state(config, key, None, mesh), jax.random.PRNGKey(0))
+    shapes = jax.eval_shape(lambda key: create_train_state(spec, key, None, mesh), jax.random.PRNGKey(0))
     sharding = parallel.replicated(mesh)
     return jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), shapes)
 
@@ -145,18 +149,19 @@ def abstract_train_state(config, mesh: Mesh | None = None) -> TrainState:
 # ---------------------------------------------------------------------------------------- train step
 
 
-def make_sampler(config, mesh: Mesh | None = None, window: int | None = None):
-    """Jitted `sample(dataset, key, step) -> batch`: the batch of step `step`, drawn on device.
+def make_sampler(spec, mesh: Mesh | None = None, window: int | None = None):
+    """Jitted `sample(dataset, key, step) -> batch`: the batch of step `step`, drawn on device
+    (`spec`: the `specs.TrainSpec`).
 
     Uses fold_in(key, step) split in 3 (batch, generator noise, discriminator noise), as the update does.
     """
     mesh = parallel.make_mesh() if mesh is None else mesh
-    batch_size = config.train.batch_size
+    batch_size = spec.train.batch_size
 
     draw = None
-    if config.data.random_starts:  # any frame starts a window: cut from the carried windows (features.py)
+    if spec.random_starts:  # any frame starts a window: cut from the carried windows (features.py)
         def draw(data, key, n):
-            return features.random_start_batch(data, key, n, config.data.window, windows_lib.FACING_FRAME)
+            return features.random_start_batch(data, key, n, spec.window, windows_lib.FACING_FRAME)
 
     def sample(dataset, key, step):
         batch_key = jax.random.split(jax.random.fold_in(key, step), 3)[0]
@@ -165,25 +170,24 @@ def make_sampler(config, mesh: Mesh | None = None, window: int | None = None):
     return jax.jit(sample)
 
 
-def make_update_step(config, mesh: Mesh | None = None,
+def make_update_step(spec, mesh: Mesh | None = None,
                      generator_loss: Callable | None = None, discriminator_loss: Callable | None = None):
     """Jitted `update(state, batch, length) -> (state, metrics)`: one update of all four networks (of the two
     generators alone with `model.discriminators=false`: `discriminator_loss` is then never called).
 
     batch: dict of (B, T, ...) arrays (batch axis sharded over the mesh). ONE rollout per generator
     (inside `generator_loss`, whose third output, when present, is handed to `discriminator_loss`). Both
-    losses take the step's `specs.TrainSpec`, resolved here once from `config`. The default generator loss
-    also takes the KL warm-up factor and the training step's rollout, the one place that chooses the fast
-    paths of `config.train` (`accel.fast_rollout.training_rollout_batch`).
+    losses take the run's `specs.TrainSpec` `spec`. The default generator loss also takes the KL warm-up
+    factor and the training step's rollout, the one place that chooses the fast paths of `config.train`
+    (`accel.fast_rollout.training_rollout_batch`).
     The state is donated: do not use the old state after the call.
     """
-    loss_options = _loss_options(config) if generator_loss is None else (lambda step: {})
+    loss_options = _loss_options(spec) if generator_loss is None else (lambda step: {})
     generator_loss = generator_loss or objective.generator_loss
     discriminator_loss = discriminator_loss or objective.discriminator_loss
     mesh = parallel.make_mesh() if mesh is None else mesh
-    optimizer = make_optimizer(config.train)
-    spec = specs.train_spec(config)
-    tc = config.train  # the update reads no other setting (but _loss_options' KL warm-up)
+    optimizer = make_optimizer(spec.train)
+    tc = spec.train  # the update reads no other setting (but _loss_options' KL warm-up)
     adversarial = spec.loss.discriminators is not None  # model.discriminators=false: no discriminator update
 
     def update(state: TrainState, batch: dict, length: jax.Array):
@@ -207,11 +211,11 @@ def make_update_step(config, mesh: Mesh | None = None,
     return jax.jit(update, donate_argnums=(0,), out_shardings=(rep, rep))
 
 
-def _loss_options(config) -> Callable:
+def _loss_options(spec) -> Callable:
     """`step -> options` of the default generator loss: the KL warm-up factor at that step and the training
     step's rollout (`accel.fast_rollout`: same values as `batch.rollout_batch`, faster gradients)."""
-    rollout_batch = fast_rollout.training_rollout_batch(config.train)
-    kl_warmup_steps = config.loss.kl_warmup_steps
+    rollout_batch = fast_rollout.training_rollout_batch(spec.train)
+    kl_warmup_steps = spec.loss.loss.kl_warmup_steps
     return lambda step: {"kl_scale": objective.kl_warmup(step, kl_warmup_steps), "rollout_batch": rollout_batch}
 
 
@@ -282,9 +286,10 @@ def _step_metrics(loss_values: dict, gen_grads: dict, disc_grads: dict | None, l
     return metrics
 
 
-def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
+def make_train_step(spec, mesh: Mesh | None = None, window: int | None = None,
                     generator_loss: Callable | None = None, discriminator_loss: Callable | None = None):
-    """`train_step(state, dataset, length) -> (state, metrics)`: draw the step's batch on device, update.
+    """`train_step(state, dataset, length) -> (state, metrics)` of a `specs.TrainSpec`: draw the step's batch
+    on device, update.
 
     dataset: dict of (N, T, ...) arrays from `parallel.shard_dataset`. length: int32 transition length (traced).
     window: frames per training window the losses see (static; None = the dataset's T). Metrics: the
@@ -293,8 +298,8 @@ def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
     program smaller and quicker to compile. The state is donated.
     """
     mesh = parallel.make_mesh() if mesh is None else mesh
-    sample = make_sampler(config, mesh, window)
-    update = make_update_step(config, mesh, generator_loss, discriminator_loss)
+    sample = make_sampler(spec, mesh, window)
+    update = make_update_step(spec, mesh, generator_loss, discriminator_loss)
 
     def train_step(state: TrainState, dataset: dict, length):
         return update(state, sample(dataset, state.key, state.step), length)
@@ -306,96 +311,97 @@ def make_train_step(config, mesh: Mesh | None = None, window: int | None = None,
 # ---------------------------------------------------------------------------------------------- data
 
 
-def pretrain_phase_params(config, dataset: dict, key: jax.Array):
-    """Pretrain the phase network on every frame of the training windows (and, with
-    ``phase.include_reversed``, of the same windows played backwards); (params, final_loss)."""
-    states, labels = features.phase_training_arrays(dataset, config)
-    return phase.pretrain_phase(key, states, labels, config.phase)
+def pretrain_phase_params(spec, dataset: dict, key: jax.Array):
+    """Pretrain the phase network of a `specs.TrainSpec` on every frame of the training windows and of the
+    same windows played backwards; (params, final_loss)."""
+    states, labels = features.phase_training_arrays(dataset, spec.skeleton.velocity_scale, spec.rollout.fps)
+    return phase.pretrain_phase(key, states, labels, spec.phase)
 
 
 # ------------------------------------------------------------------------------------------------ loop
 
 
-def _fresh_state(config, dataset: dict, mesh: Mesh) -> TrainState:
+def _fresh_state(spec, dataset: dict, mesh: Mesh) -> TrainState:
     """Step 0 from train.seed, with the phase network pretrained on `dataset` when the model uses one."""
-    key = jax.random.PRNGKey(config.train.seed)
+    key = jax.random.PRNGKey(spec.train.seed)
     phase_params = None
-    if config.model.phase_modulation:
-        phase_params, phase_loss = pretrain_phase_params(config, dataset, jax.random.fold_in(key, 1))
+    if spec.model.generator.phase_modulation:
+        phase_params, phase_loss = pretrain_phase_params(spec, dataset, jax.random.fold_in(key, 1))
         if jax.process_index() == 0:
             print(f"phase network pretrained: final loss {float(phase_loss):.4g}")
-    return create_train_state(config, key, phase_params, mesh)
+    return create_train_state(spec, key, phase_params, mesh)
 
 
-def _step_for_length(config, mesh: Mesh) -> Callable:
+def _step_for_length(spec, mesh: Mesh) -> Callable:
     """`step_for(length)`: the train step for transition length `length` (one compiled step per window)."""
     steps: dict = {}
 
     def step_for(length: int):
-        window = schedule.bucket_window(length, config.train)
+        window = schedule.bucket_window(length, spec.train)
         if window not in steps:
-            steps[window] = make_train_step(config, mesh, window)
+            steps[window] = make_train_step(spec, mesh, window)
         return steps[window]
 
     return step_for
 
 
 def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | None = None,
-          max_steps: int | None = None, config_name: str = "", progress: bool = True,
-          dataset: dict | None = None, stats: Any = None, train_step: Callable | None = None,
-          mesh: Mesh | None = None, init_from: str | os.PathLike | None = None,
+          max_steps: int | None = None, config_name: str = "", progress: bool = True, prepared: tuple | None = None,
+          train_step: Callable | None = None, init_from: str | os.PathLike | None = None,
           make_validator: Callable | None = None) -> dict:
-    """Train (or resume) a run in `workdir` until step `max_steps` (default: `total_steps`).
+    """Train (or resume) a run of `config` in `workdir` until step `max_steps` (default: `total_steps`). The
+    entry point: it builds the run's `specs.TrainSpec` once; what it calls reads that.
 
     init_from: a run folder to start a new `workdir` from (fine-tuning with other loss / train settings;
     ignored once `workdir` has checkpoints of its own). make_validator: with ``train.eval_every`` > 0,
     ``make_validator(config, data_dir, stats_json, skeleton_facts) -> validate(state) -> record``
     (``stitchjax.eval.validation.make_validator``; bin/train passes it).
 
-    dataset/stats: pass prepared arrays to skip loading (tests, notebooks); otherwise they are loaded from
-    `data_dir` (None = the bundled LAFAN1 sample). train_step: a replacement step function (tests).
+    prepared: (dataset, stats), prepared arrays to skip loading (tests, notebooks); otherwise they are loaded
+    from `data_dir` (None = the bundled LAFAN1 sample). train_step: a replacement step function (tests).
     Returns a summary dict (step, losses, wall time, stop_reason). Raises NonFiniteLossError on NaN/inf.
     """
     t_begin = time.perf_counter()
     workdir = pathlib.Path(workdir).expanduser().resolve()
     workdir.mkdir(parents=True, exist_ok=True)
-    mesh = parallel.make_mesh() if mesh is None else mesh
-    dataset, stats, device_data = _training_data(config, data_dir, dataset, stats, mesh)
+    mesh = parallel.make_mesh()
+    spec = specs.train_spec(config)
+    dataset, stats, device_data = _training_data(config.data, data_dir, prepared, mesh)
     num_windows = int(next(iter(dataset.values())).shape[0])
-    plan = schedule.plan_run(num_windows, config.train, max_steps)
+    plan = schedule.plan_run(num_windows, spec.train, max_steps)
 
-    manager = checkpoints.open_manager(workdir, max_to_keep=config.train.max_to_keep)
+    manager = checkpoints.open_manager(workdir)
     log = reporting.MetricsLog(workdir / "metrics.jsonl", enabled=jax.process_index() == 0)
     config_json = config_lib.to_dict(config)
     try:
-        state, latest = resume.restore_or_init(config_json, workdir, manager, log, abstract_train_state(config, mesh),
-                                               lambda: _fresh_state(config, dataset, mesh), init_from)
+        state, latest = resume.restore_or_init(config_json, workdir, manager, log, abstract_train_state(spec, mesh),
+                                               lambda: _fresh_state(spec, dataset, mesh), init_from)
     except resume.ResumeError as error:
         raise TrainingError(str(error)) from None
-    extras = _checkpoint_extras(config, config_name, data_dir, dataset, stats)
+    extras = _checkpoint_extras(config.data, config_name, data_dir, dataset, stats)
     saver = runner.Saver(manager, config_json, extras, latest)
     validate = (make_validator(config, data_dir, extras["stats"], extras["skeleton"])
-                if make_validator is not None and config.train.eval_every > 0 else None)
-    step_for = (lambda length: train_step) if train_step is not None else _step_for_length(config, mesh)
+                if make_validator is not None and spec.train.eval_every > 0 else None)
+    step_for = (lambda length: train_step) if train_step is not None else _step_for_length(spec, mesh)
     bar = (tqdm(total=plan.max_steps, initial=int(state.step), unit="step", dynamic_ncols=True)
            if progress and jax.process_index() == 0 else None)
     t_start = time.perf_counter()
     state, outcome = _closing_on_error(
-        lambda: runner.run_loop(state, device_data, step_for, plan, config.train, log, saver, bar, t_start, validate),
+        lambda: runner.run_loop(state, device_data, step_for, plan, spec.train, log, saver, bar, t_start, validate),
         workdir, manager, bar, saver)
     if bar is not None:
         bar.close()
     if saver.last != outcome["step"]:
         saver(outcome["step"], state)
     checkpoints.close(manager)
-    return runner.finish(workdir, config_name, outcome, num_windows, config.train, t_begin, t_start)
+    return runner.finish(workdir, config_name, outcome, num_windows, spec.train, t_begin, t_start)
 
 
-def _training_data(config, data_dir, dataset: dict | None, stats, mesh: Mesh) -> tuple:
-    """(dataset, stats, device_data): the training windows (loaded from `data_dir` unless given) and this
-    process's share of them sharded over `mesh`. TrainingError when there is no window."""
-    if dataset is None:
-        dataset, stats = datasets.load_training_data(config, data_dir)
+def _training_data(data, data_dir, prepared: tuple | None, mesh: Mesh) -> tuple:
+    """(dataset, stats, device_data): the training windows of the config's ``data`` section (loaded from
+    `data_dir` unless `prepared` gives them) and this process's share of them sharded over `mesh`.
+    TrainingError when there is no window."""
+    dataset, stats = datasets.load_training_data(data, data_dir) if prepared is None else prepared
     num_windows = int(next(iter(dataset.values())).shape[0])
     if num_windows == 0:
         raise TrainingError("no training windows: check --data and config.data (window length, subjects)")
@@ -404,15 +410,15 @@ def _training_data(config, data_dir, dataset: dict | None, stats, mesh: Mesh) ->
     return dataset, stats, device_data
 
 
-def _checkpoint_extras(config, config_name: str, data_dir, dataset: dict, stats) -> dict:
+def _checkpoint_extras(data, config_name: str, data_dir, dataset: dict, stats) -> dict:
     """What every checkpoint of the run holds beside the state: the data statistics, the config's name and the
-    skeleton's facts."""
+    skeleton's facts (``data``: the config's data section)."""
     extras = {"stats": datasets.stats_to_json(stats), "config_name": config_name,
-              "skeleton": datasets.skeleton_facts(data_dir, config.data)}
+              "skeleton": datasets.skeleton_facts(data_dir, data)}
     # the training windows' 99th percentile of horizontal root speed (cm/s): the fastest transition a
     # placed target may ask for (stitchjax.sample.takes)
     extras["stats"]["root_speed_p99"] = features.root_speed_percentiles(dataset["root_positions"],
-                                                                        config.data.fps)["p99"]
+                                                                        data.fps)["p99"]
     return extras
 
 

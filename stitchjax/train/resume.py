@@ -5,8 +5,7 @@ a fresh one.
   as `<step>.broken` (nothing is deleted) and metrics past the restored step are dropped. A saved run whose
   data / model / loss / phase config differs is refused (only train.* may change on resume).
 - Fine-tune (`init_from`): a new run folder starts from another run's newest state (same data, model and phase
-  config; loss.*, train.* and ``config.FINE_TUNABLE_MODEL_FIELDS`` may differ), its step, optimiser moments
-  and key included; a ``train.seed`` other than the source run's re-seeds that key (:func:`reseeded_key`), so
+  config; loss.* and train.* may differ), its step, optimiser moments and key included; a ``train.seed`` other than the source run's re-seeds that key (:func:`reseeded_key`), so
   two fine-tunes that differ only in the seed draw different batches and noise.
 """
 from __future__ import annotations
@@ -66,27 +65,25 @@ def _saved_config(workdir) -> tuple[int, dict]:
     step, saved = _newest_readable_config(workdir)
     try:
         saved = config_lib.to_dict(config_lib.from_dict(saved)) if saved else saved
+    except config_lib.RetiredFieldError as error:  # made by an earlier version with a setting now removed
+        raise ResumeError(f"{workdir}: {error}") from None
     except (config_lib.ConfigError, TypeError):
         pass
     return step, saved
 
 
-def _differing_sections(saved: dict, config_json: dict, sections: tuple, ignore: tuple = ()) -> list:
-    """The config sections among `sections` whose saved and current values differ; `ignore`: (section,
-    field) pairs left out of the comparison."""
-    def part(config_json, section):
-        values = dict(config_json.get(section) or {})
-        for ignored_section, field in ignore:
-            if ignored_section == section:
-                values.pop(field, None)
-        return values
-
-    return [section for section in sections if part(saved, section) != part(config_json, section)]
+def _differing_sections(saved: dict, config_json: dict, sections: tuple) -> list:
+    """The config sections among `sections` whose saved and current values differ."""
+    return [section for section in sections if (saved.get(section) or {}) != (config_json.get(section) or {})]
 
 
 def _check_same_run(config_json: dict, workdir: pathlib.Path, manager) -> None:
     """Raise ResumeError when the run saved in `workdir` has other data / model / loss / phase settings."""
-    saved_step, saved = _saved_config(workdir)
+    try:
+        saved_step, saved = _saved_config(workdir)
+    except ResumeError:
+        checkpoints.close(manager)
+        raise
     changed = _differing_sections(saved, config_json, ("data", "model", "loss", "phase"))
     if changed:
         checkpoints.close(manager)
@@ -116,12 +113,10 @@ def state_from_run(config_json: dict, source: str | os.PathLike, abstract_state:
     _, saved = _saved_config(source)
     if not saved:
         raise ResumeError(f"--init-from {source}: no readable checkpoint (expected {source}/checkpoints/<step>)")
-    tunable = tuple(("model", field) for field in config_lib.FINE_TUNABLE_MODEL_FIELDS)
-    changed = _differing_sections(saved, config_json, ("data", "model", "phase"), ignore=tunable)
+    changed = _differing_sections(saved, config_json, ("data", "model", "phase"))
     if changed:
-        tunable_names = ", ".join(f"model.{field}" for field in config_lib.FINE_TUNABLE_MODEL_FIELDS)
         raise ResumeError(f"--init-from {source}: its {', '.join(changed)} config differs from this one; "
-                          f"only loss.*, train.* and {tunable_names} may change when fine-tuning")
+                          "only loss.* and train.* may change when fine-tuning")
     manager = checkpoints.open_manager(source, read_only=True)
     try:
         state, _, _, step = checkpoints.restore_newest_good(manager, abstract_state)

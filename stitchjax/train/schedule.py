@@ -71,7 +71,7 @@ def plan_run(num_windows: int, train_config, max_steps: int | None = None) -> Ru
         raise ScheduleError(f"train.length_buckets={tuple(buckets)} must include a bucket >= train.max_length="
                             f"{tc.max_length} (or set train.length_buckets= to mask one full-window step)")
     check_lr_decay(tc)  # here, before any work, not when the step is first traced
-    checkpoint_every = tc.checkpoint_every_steps or max(1, int(round(tc.checkpoint_every * per_epoch)))
+    checkpoint_every = tc.checkpoint_every_steps or per_epoch  # 0: one checkpoint a training epoch
     return RunPlan(per_epoch, max_steps, checkpoint_every)
 
 

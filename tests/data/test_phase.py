@@ -1,11 +1,11 @@
 """Local-phase labels from foot contacts and the phase network (stitchjax.data.phase)."""
-from types import SimpleNamespace
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from stitchjax.config import PhaseConfig
 from stitchjax.data import phase
 
 FPS = 30.0
@@ -74,12 +74,11 @@ def test_bad_input_raises():
     with pytest.raises(ValueError, match="fps"):
         phase.phase_labels(np.zeros((10, 4)), 0.0)
     with pytest.raises(ValueError, match="unknown"):
-        phase.phase_labels(np.zeros((10, 4)), FPS, window_secs=1.0)
+        phase.init_phase_params(jax.random.key(0), 95, None, hidden_dims=16)
 
 
-def test_settings_come_from_config():
-    config = SimpleNamespace(phase=SimpleNamespace(hidden_dim=16, num_layers=1))
-    params = phase.init_phase_params(jax.random.key(0), 95, config)
+def test_settings_come_from_the_configs_phase_section():
+    params = phase.init_phase_params(jax.random.key(0), 95, PhaseConfig(hidden_dim=16, num_layers=1))
     assert params["params"]["hidden_0"]["kernel"].shape == (95, 16)
     assert "hidden_1" not in params["params"]
 
@@ -97,7 +96,7 @@ def test_pretrain_reduces_loss_on_learnable_mapping():
     states = jax.random.normal(jax.random.key(1), (512, 20))
     weights = jax.random.normal(jax.random.key(2), (20, 8)) / np.sqrt(20)
     labels = jnp.tanh(states @ weights)
-    settings = dict(hidden_dim=32, num_layers=2, steps=300, batch_size=64, learning_rate=3e-3)
+    settings = dict(hidden_dim=32, num_layers=2, steps=300, batch_size=64)
     start = phase.phase_loss(phase.init_phase_params(key, 20, None, **settings), states, labels)
     params, final_loss = phase.pretrain_phase(key, states, labels, None, **settings)
     assert float(final_loss) < 0.3 * float(start)

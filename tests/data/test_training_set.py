@@ -39,8 +39,8 @@ def _extra_folder(tmp_path, sample_copy, name):
 
 def test_validation_takes_never_train_and_are_cut_as_test_windows(sample_copy):
     config = tiny("data.validation_files=walk4_subject1")
-    data, stats = datasets.load_training_data(config, sample_copy)
-    plain, _ = datasets.load_training_data(tiny(), sample_copy)
+    data, stats = datasets.load_training_data(config.data, sample_copy)
+    plain, _ = datasets.load_training_data(tiny().data, sample_copy)
     windows, _ = datasets.validation_windows(sample_copy, config.data)
     assert {s.split(":")[0] for s in windows.sources} == {"walk4_subject1.bvh.gz"}
     assert windows.window_length == 65  # as the test windows
@@ -52,7 +52,7 @@ def test_validation_takes_never_train_and_are_cut_as_test_windows(sample_copy):
                                          ("walk9_subject3", "is not a training file")])
 def test_a_validation_take_outside_the_training_files_is_refused(sample_copy, name, words):
     with pytest.raises(ValueError, match=words):
-        datasets.load_training_data(tiny(f"data.validation_files={name}"), sample_copy)
+        datasets.load_training_data(tiny(f"data.validation_files={name}").data, sample_copy)
 
 
 def test_bin_train_refuses_a_validation_split_overlapping_the_test_files(sample_copy, tmp_path):
@@ -73,13 +73,13 @@ def test_an_extra_file_of_a_test_validation_or_main_take_is_refused(sample_copy,
     extra = _extra_folder(tmp_path, sample_copy, name)
     config = tiny(f"data.extra_train_dirs={extra}", "data.validation_files=dance1_subject2")
     with pytest.raises(ValueError, match=words):
-        datasets.load_training_data(config, sample_copy)
+        datasets.load_training_data(config.data, sample_copy)
 
 
 def test_extra_clips_train_with_the_main_ones(sample_copy, tmp_path):
     extra = _extra_folder(tmp_path, sample_copy, "walk2_subject2_walk_filtered")
-    data, _ = datasets.load_training_data(tiny(f"data.extra_train_dirs={extra}"), sample_copy)
-    plain, _ = datasets.load_training_data(tiny(), sample_copy)
+    data, _ = datasets.load_training_data(tiny(f"data.extra_train_dirs={extra}").data, sample_copy)
+    plain, _ = datasets.load_training_data(tiny().data, sample_copy)
     dance = bvh.load(sample_copy / "dance1_subject2.bvh.gz").num_frames
     assert len(data["rotations"]) == len(plain["rotations"]) + len(range(0, dance - 14, 10))
     np.testing.assert_array_equal(data["rotations"][:len(plain["rotations"])], plain["rotations"])
@@ -102,8 +102,8 @@ def test_a_60fps_take_with_a_root_above_hips_keeps_its_even_frames_with_the_root
 
 def test_mirrored_training_set_is_twice_as_large_with_mirrored_statistics(sample_copy):
     config = tiny("data.mirror=true")
-    data, stats = datasets.load_training_data(config, sample_copy)
-    plain, _ = datasets.load_training_data(tiny(), sample_copy)
+    data, stats = datasets.load_training_data(config.data, sample_copy)
+    plain, _ = datasets.load_training_data(tiny().data, sample_copy)
     n = len(plain["rotations"])
     assert len(data["rotations"]) == 2 * n
     np.testing.assert_array_equal(data["rotations"][:n], plain["rotations"])
@@ -121,15 +121,16 @@ def test_mirrored_training_set_is_twice_as_large_with_mirrored_statistics(sample
 
 
 def test_random_start_training_set_carries_every_start_and_trains(sample_copy, tmp_path):
+    from stitchjax import specs
     from stitchjax.train import loop as train
 
     config = tiny("data.random_starts=true", "data.mirror=true", "train.max_length=8")
-    data, stats = datasets.load_training_data(config, sample_copy)
+    data, stats = datasets.load_training_data(config.data, sample_copy)
     assert data["rotations"].shape[1] == 14 + 9 and data["facing"].shape == data["rotations"].shape[:2] + (4,)
     frames = sum(bvh.load(p).num_frames for p in sorted(sample_copy.glob("*_subject[1-4].bvh.gz")))
     files = len(list(sample_copy.glob("*_subject[1-4].bvh.gz")))
     assert int(data["start_counts"].sum()) == 2 * (frames - files * 14)  # every start, mirrored too
-    summary = train.train(config, tmp_path / "run", max_steps=2, dataset=data, stats=stats, progress=False)
+    summary = train.train(config, tmp_path / "run", max_steps=2, prepared=(data, stats), progress=False)
     assert summary["step"] == 2 and np.isfinite(summary["final"]["loss"])
 
 
@@ -142,7 +143,7 @@ def test_bin_evaluate_split_validation_scores_the_models_validation_takes(sample
     cli = load_cli("evaluate")
     for split_files, run in (("walk4_subject1", tmp_path / "with_split"), ("", tmp_path / "without")):
         config = C.apply_overrides(C.load_config("tiny"), [f"data.validation_files={split_files}"])
-        state = train.create_train_state(config, jax.random.PRNGKey(0))
+        state = train.create_train_state(specs.train_spec(config), jax.random.PRNGKey(0))
         manager = checkpoints.open_manager(run, async_save=False)
         checkpoints.save(manager, 0, state, C.to_dict(config), {"config_name": "tiny"})
         checkpoints.close(manager)

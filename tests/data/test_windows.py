@@ -210,14 +210,14 @@ def test_clip_windows_and_their_statistics_agree_with_the_window_functions():
 def _prepared(rng, frames=70, window=12, offset=5, extra_frames=0):
     """A random clip's (carried) windows as the training arrays, in float64 (no phase labels needed)."""
     from stitchjax.data import features, windows as windows_lib
-    from stitchjax.config import Config, DataConfig
+    from stitchjax.config import DataConfig
 
     rot, pos = random_motion(rng, (frames,))
     cut = clip_windows(rot, pos, LAFAN1_PARENTS, window, offset, LAFAN1_FEET, frame=3, extra_frames=extra_frames)
     n, t = cut["rotations"].shape[:2]
     windows = Windows(cut["rotations"], cut["positions"], cut["contacts"], lafan1_skeleton(pos[0]), 30.0,
                       [str(i) for i in range(n)])
-    data = features.prepare_dataset(windows, None, Config(data=DataConfig(window=window, offset=offset)),
+    data = features.prepare_dataset(windows, None, DataConfig(window=window, offset=offset),
                                     phase_labels=np.zeros((n, t, 8)))
     _, global_positions = forward_kinematics(cut["rotations"], cut["positions"], LAFAN1_PARENTS)
     data.update(rotations=cut["rotations"], root_positions=cut["positions"][:, :, 0],

@@ -39,7 +39,7 @@ def one_rollout(model, seed=0):
     target = {"rotations": w.rotations[0, 9 + LENGTH + 1], "root_position": w.positions[0, 9 + LENGTH + 1, 0],
               "contacts": w.contacts[0, 9 + LENGTH + 1]}
     as32 = lambda tree: jax.tree.map(lambda x: np.asarray(x, np.float32), tree)  # noqa: E731
-    return RO.rollout(model.params, model.phase_params, as32(start), as32(target), as32(w.positions[0, 9]),
+    return RO.rollout(model.params, model.phase_params, (as32(start), as32(target), as32(w.positions[0, 9])),
                       jax.random.PRNGKey(seed), model.rollout_spec, LENGTH, LENGTH)
 
 

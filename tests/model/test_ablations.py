@@ -36,9 +36,10 @@ def rollout_of(config, length, seed=0):
     spec = RO.rollout_spec(config)
     key = jax.random.PRNGKey(seed)
     params = N.init_params(N.model_spec(config), key)
-    phase_params = phase_lib.init_phase_params(jax.random.fold_in(key, 1), F.state_dim(config), config.phase)
+    phase_params = phase_lib.init_phase_params(jax.random.fold_in(key, 1),
+                                               F.state_dim(config.data.num_joints, config.data.num_contacts), config.phase)
     start, target, offsets = keyframes(seed)
-    result = RO.rollout(params, phase_params, start, target, offsets, jax.random.PRNGKey(5), spec, length, length)
+    result = RO.rollout(params, phase_params, (start, target, offsets), jax.random.PRNGKey(5), spec, length, length)
     return result, spec
 
 
@@ -67,7 +68,7 @@ def test_without_the_bidirectional_scheme_the_forward_generator_makes_every_fram
 
 def _step(config, params, phase, carry=None, seed=3):
     """One generator step (prior, no ground truth) with the given phase features and carry."""
-    spec = N.generator_spec(config)
+    spec = N.model_spec(config).generator
     dims = N.generator_input_dims(spec)
     rng = np.random.default_rng(seed)
     x = {name: jnp.asarray(rng.normal(size=(size,)), jnp.float32) for name, size in dims.items()}
@@ -93,9 +94,9 @@ def test_without_phase_modulation_the_decoder_is_an_mlp_and_reads_no_phase():
     config = tiny_config("model.phase_modulation=false")
     spec, params = RO.rollout_spec(config), N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     start, target, offsets = keyframes(0)
-    motions = [RO.rollout(params, phase_lib.init_phase_params(jax.random.PRNGKey(seed), F.state_dim(config),
-                                                              config.phase),
-                          start, target, offsets, jax.random.PRNGKey(5), spec, 6, 6)["global_positions"]
+    state_dim = F.state_dim(config.data.num_joints, config.data.num_contacts)
+    motions = [RO.rollout(params, phase_lib.init_phase_params(jax.random.PRNGKey(seed), state_dim, config.phase),
+                          (start, target, offsets), jax.random.PRNGKey(5), spec, 6, 6)["global_positions"]
                for seed in (1, 2)]
     np.testing.assert_array_equal(motions[0], motions[1])
 
@@ -107,7 +108,7 @@ def test_without_the_lstm_the_embeddings_feed_the_heads_and_nothing_recurs():
     assert "lstm" not in names and {"state_encoder", "offset_encoder", "target_encoder", "current_head"} <= names
     width = config.model.encoder_widths[-1]
     assert params["params"]["current_head"]["kernel"].shape[0] == 3 * width  # the three embeddings, concatenated
-    spec = N.generator_spec(config)
+    spec = N.model_spec(config).generator
     other = jax.tree.map(lambda z: z + 1.0, N.initial_carry(spec))
     (carry_a, out_a), (carry_b, out_b) = _step(config, params, np.zeros(8)), _step(config, params, np.zeros(8), other)
     for name in ("velocity", "rotation_update", "mu", "logvar"):

@@ -53,8 +53,7 @@ def test_foot_skate_on_predicted_contacts_equals_a_hand_computation(setup):  # n
     on = C.apply_overrides(config, ["loss.foot_skate_weight=2.0", "loss.foot_skate_contacts=predicted"])
     spec = SP.train_spec(on)
     length = 8
-    out, _ = OB.generator_rollouts(params, phase_params, batch, jax.random.PRNGKey(1), spec, jnp.int32(length),
-                                   None)
+    out = OB.generator_rollouts(params, phase_params, batch, jax.random.PRNGKey(1), spec, jnp.int32(length))
     _, terms, _ = OB.generator_loss(params, phase_params, batch, jax.random.PRNGKey(1), spec, jnp.int32(length))
     positions = np.asarray(out["global_positions"], np.float64)[..., list(FEET), :]
     contacts = np.asarray(out["contacts"], np.float64)

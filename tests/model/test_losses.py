@@ -76,7 +76,8 @@ def setup():
 
     config = C.load_config("tiny")
     params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
-    phase_params = phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config), config)
+    phase_params = phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config.data.num_joints, config.data.num_contacts),
+                                        config.phase)
     return config, params, phase_params, synthetic_batch()
 
 
@@ -140,7 +141,7 @@ def test_prepare_dataset_on_synthetic_windows():
     contacts = (rng.random((n, t, 4)) > 0.5).astype(np.float64)
     skeleton = S.lafan1_skeleton(offsets)
     windows = Windows(q, positions, contacts, skeleton, 30.0, [f"clip:{i}" for i in range(n)])
-    data = F.prepare_dataset(windows, None, config)
+    data = F.prepare_dataset(windows, None, config.data)
     assert data["rotations"].shape == (n, t, J, 4) and data["root_positions"].shape == (n, t, 3)
     assert data["contacts"].shape == (n, t, 4) and data["phase"].shape == (n, t, 8)
     assert data["offsets"].shape == (n, 1, J, 3) and data["global_positions"].shape == (n, t, J, 3)
@@ -148,10 +149,10 @@ def test_prepare_dataset_on_synthetic_windows():
     _, gpos = S.forward_kinematics(q, positions, S.LAFAN1_PARENTS)
     np.testing.assert_allclose(data["global_positions"], gpos, rtol=1e-4, atol=1e-3)
     states = F.dataset_states(data, config.data.velocity_scale)
-    assert states.shape == (n, t, F.state_dim(config))
+    assert states.shape == (n, t, F.state_dim(config.data.num_joints, config.data.num_contacts))
     bad = C.apply_overrides(config, ["data.parents=-1,0,1"])
     with pytest.raises(F.DatasetError, match="parents"):
-        F.prepare_dataset(windows, None, bad)
+        F.prepare_dataset(windows, None, bad.data)
 
 
 def test_foot_skate_loss_counts_only_feet_that_move_while_in_contact():
@@ -283,10 +284,9 @@ def test_with_every_extension_off_the_objective_is_eq9_term_for_term(setup, post
             lc.gen_weight) == ((1.0, 1.0, 0.1), 1.0, 0.5, 0.5, 0.1)
     length = 7
     spec = SP.train_spec(config)
-    out, sampled = OB.generator_rollouts(params, phase_params, batch, jax.random.PRNGKey(3), spec, jnp.int32(length))
-    total, terms, _ = OB.generator_objective(params, out, sampled, batch, jnp.int32(length), spec.loss,
-                                             spec.skeleton)
-    assert sampled is out and not {"foot_skate", "foot_velocity"} & set(terms)
+    out = OB.generator_rollouts(params, phase_params, batch, jax.random.PRNGKey(3), spec, jnp.int32(length))
+    total, terms, _ = OB.generator_objective(params, out, batch, jnp.int32(length), spec.loss, spec.skeleton)
+    assert not {"foot_skate", "foot_velocity"} & set(terms)
 
     f64 = lambda x: np.asarray(x, np.float64)  # noqa: E731
     truth = {k: f64(v) for k, v in batch.items()}
@@ -324,7 +324,7 @@ def test_with_every_extension_off_the_objective_is_eq9_term_for_term(setup, post
     features = jnp.asarray(np.concatenate([rel, velocity], axis=-1), jnp.float32)
     adv = 0.0
     for which in ("disc_short", "disc_long"):
-        scores = f64(N.make_discriminator(N.discriminator_spec(config), which).apply(params[which], features))
+        scores = f64(N.make_discriminator(N.model_spec(config).discriminators, which).apply(params[which], features))
         window = config.model.disc_short_window if which == "disc_short" else config.model.disc_long_window
         valid = (np.arange(scores.shape[1])[None, :] + window <= motion_mask.sum(1, keepdims=True)).astype(np.float64)
         adv += 0.5 * float(np.sum((scores - 1.0) ** 2 * valid) / valid.sum())

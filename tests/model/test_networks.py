@@ -26,12 +26,12 @@ def test_init_params_and_generator_shapes():
     assert set(params) == {"forward", "backward", "disc_short", "disc_long"}
     kernel = params["forward"]["params"]["current_head"]["kernel"]
     assert not np.allclose(kernel, params["backward"]["params"]["current_head"]["kernel"])  # independent
-    dims = N.generator_input_dims(N.generator_spec(config))
+    dims = N.generator_input_dims(N.model_spec(config).generator)
     assert dims["state"] == 22 * 4 + 7 and dims["offset"] == 22 * 4 + 3 + 1 and dims["phase"] == 8
     b = 3
     inputs = [jnp.ones((b, dims[k])) for k in ("state", "target", "offset")]
-    carry = jax.tree.map(lambda x: jnp.zeros((b,) + x.shape), N.initial_carry(N.generator_spec(config)))
-    generator = N.make_generator(N.generator_spec(config))
+    carry = jax.tree.map(lambda x: jnp.zeros((b,) + x.shape), N.initial_carry(N.model_spec(config).generator))
+    generator = N.make_generator(N.model_spec(config).generator)
     apply = jax.jit(jax.vmap(generator.apply, in_axes=(None, 0, 0, 0, 0, 0, 0, 0)))
     new_carry, out = apply(params["forward"], carry, *inputs, jnp.full((b,), 0.5), jnp.ones((b, 8)), jnp.ones((b, 4)))
     assert new_carry[0].shape == (b, 16) and new_carry[1].shape == (b, 16)
@@ -48,8 +48,8 @@ def test_discriminator_scores_one_per_window_position():
     config = tiny_config("model.disc_long_window=10")  # the paper's 2- and 10-frame windows
     params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     feats = jnp.ones((2, 12, N.disc_feature_dim(config.data.num_joints)))
-    short = N.make_discriminator(N.discriminator_spec(config), "disc_short").apply(params["disc_short"], feats)
-    long = N.make_discriminator(N.discriminator_spec(config), "disc_long").apply(params["disc_long"], feats)
+    short = N.make_discriminator(N.model_spec(config).discriminators, "disc_short").apply(params["disc_short"], feats)
+    long = N.make_discriminator(N.model_spec(config).discriminators, "disc_long").apply(params["disc_long"], feats)
     assert short.shape == (2, 11) and long.shape == (2, 3)
 
 
@@ -69,21 +69,18 @@ def test_moe_einsum_equals_blended_weights():
     np.testing.assert_allclose(got, np.stack(explicit), rtol=1e-5, atol=1e-5)
 
 
-def test_blend_gaussians_endpoints_and_modes():
+def test_blend_gaussians_endpoints_and_midpoint():
     mu, logvar = jnp.array([1.0, -2.0]), jnp.log(jnp.array([4.0, 0.25]))
     mu_t, logvar_t = jnp.array([3.0, 0.0]), jnp.log(jnp.array([1.0, 1.0]))
-    for mode in ("std", "var"):
-        m0, v0 = N.blend_gaussians(mu, logvar, mu_t, logvar_t, 0.0, mode)
-        m1, v1 = N.blend_gaussians(mu, logvar, mu_t, logvar_t, 1.0, mode)
-        np.testing.assert_allclose(m0, mu, rtol=1e-6)
-        np.testing.assert_allclose(v0, logvar, rtol=1e-5, atol=1e-6)
-        np.testing.assert_allclose(m1, mu_t, rtol=1e-6)
-        np.testing.assert_allclose(v1, logvar_t, rtol=1e-5, atol=1e-6)
-    m, v = N.blend_gaussians(mu, logvar, mu_t, logvar_t, 0.5, "std")
+    m0, v0 = N.blend_gaussians(mu, logvar, mu_t, logvar_t, 0.0)
+    m1, v1 = N.blend_gaussians(mu, logvar, mu_t, logvar_t, 1.0)
+    np.testing.assert_allclose(m0, mu, rtol=1e-6)
+    np.testing.assert_allclose(v0, logvar, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(m1, mu_t, rtol=1e-6)
+    np.testing.assert_allclose(v1, logvar_t, rtol=1e-5, atol=1e-6)
+    m, v = N.blend_gaussians(mu, logvar, mu_t, logvar_t, 0.5)
     np.testing.assert_allclose(m, [2.0, -1.0], rtol=1e-6)
-    np.testing.assert_allclose(jnp.exp(0.5 * v), [1.5, 0.75], rtol=1e-5)
-    _, v = N.blend_gaussians(mu, logvar, mu_t, logvar_t, 0.5, "var")
-    np.testing.assert_allclose(jnp.exp(v), [1.25, 0.3125], rtol=1e-5)
+    np.testing.assert_allclose(jnp.exp(0.5 * v), [1.5, 0.75], rtol=1e-5)  # the standard deviations blend
 
 
 def test_plain_decoder_without_phase_modulation():
@@ -166,10 +163,11 @@ def test_tape_point_records_then_replays_with_the_derivative_and_the_output_grad
                                atol=1e-6)
 
 
-@pytest.mark.parametrize("kind", ["elu", "relu", "leaky_relu", "sigmoid", "tanh", "softmax"])
+@pytest.mark.parametrize("kind", ["elu", "identity", "sigmoid", "tanh", "softmax"])
 def test_tape_derivatives_match_autodiff(kind):
-    fns = {"elu": accel_matmul.elu, "relu": jax.nn.relu, "leaky_relu": lambda v: jax.nn.leaky_relu(v, 0.2),
-           "sigmoid": jax.nn.sigmoid, "tanh": jnp.tanh, "softmax": lambda v: jax.nn.softmax(v, axis=-1)}
+    fns = {"elu": accel_matmul.elu, "identity": lambda v: v, "sigmoid": jax.nn.sigmoid, "tanh": jnp.tanh,
+           "softmax": lambda v: jax.nn.softmax(v, axis=-1)}
+    assert set(fns) == set(tape.DERIVATIVES)
     x = jax.random.normal(jax.random.PRNGKey(2), (5, 7)) * 2.0
     dy = jax.random.normal(jax.random.PRNGKey(3), (5, 7))
     y, vjp = jax.vjp(fns[kind], x)
@@ -210,14 +208,14 @@ def test_generator_matmul_dtype_keeps_parameters_and_changes_outputs_slightly():
     for a, b in zip(jax.tree.leaves(params), jax.tree.leaves(low_params)):
         assert a.dtype == b.dtype == jnp.float32
         np.testing.assert_array_equal(a, b)
-    dims = N.generator_input_dims(N.generator_spec(config))
+    dims = N.generator_input_dims(N.model_spec(config).generator)
     rng = np.random.default_rng(0)
     inputs = [jnp.asarray(rng.normal(size=(3, dims[k])), jnp.float32) for k in ("state", "target", "offset")]
-    carry = jax.tree.map(lambda z: jnp.zeros((3,) + z.shape), N.initial_carry(N.generator_spec(config)))
+    carry = jax.tree.map(lambda z: jnp.zeros((3,) + z.shape), N.initial_carry(N.model_spec(config).generator))
     args = (carry, *inputs, jnp.full((3,), 0.5), jnp.asarray(rng.normal(size=(3, dims["phase"])), jnp.float32),
             jnp.asarray(rng.normal(size=(3, dims["eps"])), jnp.float32))
     def generator(c):  # on accel's layers, which honour model.matmul_dtype
-        return N.make_generator(dataclasses.replace(N.generator_spec(c), layers=accel_matmul.LAYERS))
+        return N.make_generator(dataclasses.replace(N.model_spec(c).generator, layers=accel_matmul.LAYERS))
 
     _, out = jax.vmap(lambda *a: generator(config).apply(params["forward"], *a))(*args)
     _, out_low = jax.vmap(lambda *a: generator(low).apply(params["forward"], *a))(*args)
@@ -246,7 +244,7 @@ def test_elu_has_flax_values_and_gradients_formed_from_its_output():
 def test_probed_generator_has_the_plain_generators_parameters_and_values(extra):
     """The training step's probed layers (stitchjax.accel.probes) change nothing a reader of the model sees:
     the same parameter tree from the same key, and bit-identical outputs without probes or tape."""
-    spec = N.generator_spec(tiny_config(*extra))
+    spec = N.model_spec(tiny_config(*extra)).generator
     dims = N.generator_input_dims(spec)
     args = (N.initial_carry(spec),) + tuple(
         jax.random.normal(jax.random.PRNGKey(i), (dims[k],)) for i, k in enumerate(("state", "target", "offset")))
@@ -265,7 +263,7 @@ def test_probed_generator_has_the_plain_generators_parameters_and_values(extra):
 
 def test_bfloat16_generator_needs_accel_layers_and_init_does_not():
     config = C.apply_overrides(C.load_config("tiny"), ["model.matmul_dtype=bfloat16"])
-    spec = N.generator_spec(config)
+    spec = N.model_spec(config).generator
     with pytest.raises(ValueError, match="accel.matmul"):
         N.make_generator(spec)  # the plain layers would silently compute in float32
     assert isinstance(N.make_generator(dataclasses.replace(spec, layers=accel_matmul.LAYERS)), N.Generator)

@@ -114,12 +114,13 @@ def test_evaluation_method_ignores_the_ground_truth_and_noise_scale_zero_collaps
 
 def test_one_train_step_changes_the_posterior_and_the_kl_is_kl_q_p():
     config = tiny_config()
-    data, _ = datasets.load_training_data(config, None)
+    data, _ = datasets.load_training_data(config.data, None)
     data = {k: (x[:8, :10] if x.shape[1] > 1 else x[:8]) for k, x in data.items()}
     mesh = parallel.make_mesh()
-    state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
+    spec = specs.train_spec(config)
+    state = train.create_train_state(spec, jax.random.PRNGKey(0), None, mesh)
     before = jax.device_get(state.params)
-    state, m = train.make_train_step(config, mesh)(state, parallel.shard_dataset(data, mesh), jnp.int32(6))
+    state, m = train.make_train_step(spec, mesh)(state, parallel.shard_dataset(data, mesh), jnp.int32(6))
     after = jax.device_get(state.params)
     for direction in ("forward", "backward"):
         pairs = zip(jax.tree.leaves(before[direction]["params"]["posterior"]),
@@ -147,29 +148,27 @@ def test_gaussian_kl_free_bits_and_warmup():
 def test_interpolation_weight_runs_from_zero_to_one_in_each_direction():
     config = tiny_config()
     h, k, n_fwd, n_bwd = (int(x) for x in RO.schedule(RO.rollout_spec(config), 48))
-    last_fwd = float(RO.interpolation_weight(RO.rollout_spec(config), n_fwd, n_fwd, 48))
-    last_bwd = float(RO.interpolation_weight(RO.rollout_spec(config), n_bwd, n_bwd, 48))
+    last_fwd = float(RO.interpolation_weight(n_fwd, n_fwd))
+    last_bwd = float(RO.interpolation_weight(n_bwd, n_bwd))
     assert last_fwd == pytest.approx(1.0) and last_bwd == pytest.approx(1.0)
-    assert float(RO.interpolation_weight(RO.rollout_spec(config), 1, n_fwd, 48)) == pytest.approx(1 / n_fwd)
-    legacy = tiny_config("model.gamma_schedule=transition")
-    legacy_last = float(RO.interpolation_weight(RO.rollout_spec(legacy), n_fwd, n_fwd, 48))
-    assert legacy_last == pytest.approx(n_fwd / 49) and legacy_last < 0.6
+    assert float(RO.interpolation_weight(1, n_fwd)) == pytest.approx(1 / n_fwd)
+    assert float(RO.interpolation_weight(3, 0)) == 1.0  # clipped: never above 1
 
 
 def test_configs_saved_before_the_posterior_are_refused_naming_the_fields_to_add():
     saved = C.to_dict(C.load_config("tiny"))
-    for name in ("posterior", "z_every_layer", "decoder_uses_lstm", "gamma_schedule"):
-        del saved["model"][name]
-    del saved["phase"]["include_reversed"]
-    saved["train"]["length_counts_keyframes"] = False  # a removed field
-    with pytest.raises(C.ConfigError, match="lacks model.gamma_schedule, model.posterior, model.z_every_layer, "
-                                            "model.decoder_uses_lstm, phase.include_reversed"):  # field order
+    del saved["model"]["posterior"], saved["model"]["latent_dim"]
+    saved["train"]["length_counts_keyframes"] = False  # a field read nowhere: dropped
+    # removed fields at the values the code now always uses: dropped
+    saved["model"].update(z_every_layer=True, decoder_uses_lstm=False, gamma_schedule="direction")
+    with pytest.raises(C.ConfigError, match="lacks model.latent_dim, model.posterior"):  # field order
         C.from_dict(json.loads(json.dumps(saved)))
-    saved["model"].update(posterior="none", z_every_layer=False, decoder_uses_lstm=True, gamma_schedule="transition")
-    saved["phase"]["include_reversed"] = False
+    saved["model"].update(posterior="none", latent_dim=4)
     old = C.from_dict(json.loads(json.dumps(saved)))
-    assert (old.model.posterior, old.model.z_every_layer, old.model.decoder_uses_lstm,
-            old.model.gamma_schedule, old.phase.include_reversed) == ("none", False, True, "transition", False)
+    assert (old.model.posterior, old.model.latent_dim) == ("none", 4)
+    saved["model"]["decoder_uses_lstm"] = True  # a model the code can no longer build: refused, naming the field
+    with pytest.raises(C.RetiredFieldError, match="model.decoder_uses_lstm=True"):
+        C.from_dict(json.loads(json.dumps(saved)))
     with pytest.raises(C.ConfigError, match="posterior must be one of"):
         C.apply_overrides(C.load_config("tiny"), ["model.posterior=nope"])
 
@@ -229,41 +228,6 @@ def test_prior_sample_fraction_trains_and_keeps_the_paper_path_at_zero(setup):
     with pytest.raises(ValueError, match="prior_sample_fraction"):  # a negative fraction is refused, not ignored
         BT.rollout_batch(params, phase_params, batch, key,
                          RO.rollout_spec(C.apply_overrides(config, ["loss.prior_sample_fraction=-0.1"])), LENGTH)
-
-
-def test_prior_sample_reconstruction_weight_only_reweighs_the_prior_windows_state_and_fk(setup):
-    """loss.prior_sample_reconstruction_weight: at 0 the state and FK terms no longer read the ground truth of
-    the windows drawn from the prior (only the posterior windows are scored); at 1 nothing changes."""
-    config, params, phase_params, batch = setup
-    key = jax.random.PRNGKey(1)
-    mixed = C.apply_overrides(config, ["loss.prior_sample_fraction=0.5"])
-    posterior_key = jax.random.split(key)[0]  # the key generator_rollouts gives the rollout
-    flags = np.asarray(BT.prior_sample_flags(posterior_key, batch["rotations"].shape[0], 0.5))
-    assert flags.any() and not flags.all(), "the test batch must hold both kinds of window"
-    out = BT.rollout_batch(params, phase_params, batch, posterior_key, RO.rollout_spec(mixed), LENGTH)
-    np.testing.assert_array_equal(np.asarray(out["prior_sampled"]), flags)
-
-    changed = _changed_in_between(batch)  # the prior windows' in-between ground truth replaced by noise
-    changed = {k: (jnp.where(jnp.asarray(flags).reshape((-1,) + (1,) * (v.ndim - 1)), changed[k], v)
-                   if k in ("rotations", "root_positions", "contacts", "global_positions") else v)
-               for k, v in batch.items()}
-
-    def terms(cfg, b):
-        return _generator_loss(params, phase_params, b, key, cfg, LENGTH)[1]
-
-    weight0 = C.apply_overrides(mixed, ["loss.prior_sample_reconstruction_weight=0"])
-    a, b = terms(weight0, batch), terms(weight0, changed)
-    for name in ("state", "fk", "rotation", "velocity"):
-        np.testing.assert_allclose(float(a[name]), float(b[name]), rtol=1e-6, err_msg=name)
-    full_a, full_b = terms(mixed, batch), terms(mixed, changed)  # weight 1: the prior windows are scored
-    assert abs(float(full_a["fk"]) - float(full_b["fk"])) > 1e-3
-    weight1 = C.apply_overrides(mixed, ["loss.prior_sample_reconstruction_weight=1"])
-    assert float(terms(weight1, batch)["state"]) == float(full_a["state"])
-    assert abs(float(a["state"]) - float(full_a["state"])) > 1e-4
-    with pytest.raises(ValueError, match="prior_sample_reconstruction_weight"):
-        terms(C.apply_overrides(mixed, ["loss.prior_sample_reconstruction_weight=-1"]), batch)
-    with pytest.raises(ValueError, match="prior_sample_fraction > 0"):  # no prior window: refused, not ignored
-        terms(C.apply_overrides(config, ["loss.prior_sample_reconstruction_weight=0.25"]), batch)
 
 
 def test_near_keyframe_weight_reweighs_only_the_frames_next_to_the_keyframes(setup):
@@ -338,14 +302,14 @@ def test_noise_ramp_puts_the_frames_next_to_the_keyframes_on_the_mean_path():
     spec = RO.rollout_spec(config)
 
     def run(key, ramp):
-        return RO.rollout(params, phase_params_for(config), start, target, offsets, key, spec, length, length,
-                          noise_ramp_steps=ramp)
+        return RO.rollout(params, phase_params_for(config), (start, target, offsets), key, spec, length, length,
+                          NZ.NoiseSpec(ramp_steps=ramp))
 
     keys = jax.random.split(jax.random.PRNGKey(3), 2)
     ramped = [run(k, 4) for k in keys]
     still = run(keys[0], 4)  # same key, same result
-    mean = RO.rollout(params, phase_params_for(config), start, target, offsets, keys[0], spec, length, length,
-                      noise_scale=0.0)
+    mean = RO.rollout(params, phase_params_for(config), (start, target, offsets), keys[0], spec, length, length,
+                      NZ.NoiseSpec(scale=0.0))
     for direction in ("forward", "backward"):
         first = [np.asarray(r[direction]["global_positions"][0]) for r in ramped]
         # step 0 of each direction (frame 1, frame L) draws no noise: every sample is on the mean path there
@@ -360,87 +324,39 @@ def test_noise_ramp_puts_the_frames_next_to_the_keyframes_on_the_mean_path():
                   - np.asarray(plain[1]["forward"]["global_positions"][0])).max() > 1e-4
 
 
-def test_prior_best_of_scores_only_the_copy_closest_to_the_ground_truth(setup):
-    """loss.prior_best_of = K: the last round(f B) windows are rolled out K times from the prior; the state and
-    FK terms score the posterior windows and, of each prior window, only its copy nearest the ground truth;
-    the discriminator sees the batch's own B windows; K = 1 is the random draw of prior_sample_fraction."""
+def test_the_noise_spec_correlates_the_rollouts_noise_and_the_latent_noise_may_be_given(setup):
+    """A NoiseSpec's correlation moves the rollout, 0 (the default) is the paper's independent noise, and noise
+    given in ``latent`` is used as the noise the key would have drawn."""
     config, params, phase_params, batch = setup
-    key = jax.random.PRNGKey(1)
-    size = batch["rotations"].shape[0]
-    best3 = C.apply_overrides(config, ["loss.prior_sample_fraction=0.5", "loss.prior_best_of=3"])
-    copies, flags, num_prior = objective.prior_copies(batch, specs.loss_spec(best3))
-    assert num_prior == round(0.5 * size) and copies["rotations"].shape[0] == size + 2 * num_prior
-    np.testing.assert_array_equal(np.asarray(flags), np.arange(size + 2 * num_prior) >= size - num_prior)
-    for block in (1, 2):  # the repeated blocks are the batch's last num_prior windows
-        rows = slice(size + (block - 1) * num_prior, size + block * num_prior)
-        np.testing.assert_array_equal(copies["global_positions"][rows], batch["global_positions"][-num_prior:])
+    keyframes = jax.tree.map(lambda x: x[0], BT.keyframes_from_batch(batch, LENGTH))
+    key, spec = jax.random.PRNGKey(2), RO.rollout_spec(config)
 
-    errors = jnp.asarray([9.0, 5.0, 1.0, 2.0, 0.5, 3.0, 3.0, 0.1])  # 2 posterior rows, then K = 3 blocks of 2
-    np.testing.assert_array_equal(objective.best_of_weights(errors, 2, 3), [1, 1, 0, 0, 1, 0, 0, 1])
-    positions = jnp.zeros((2, 3, 4, 3)).at[1, :, :, 0].set(3.0)
-    np.testing.assert_allclose(objective.window_position_errors(positions, jnp.zeros_like(positions),
-                                                             jnp.ones((2, 3), bool)), [0.0, 3.0])
+    def run(noise=NZ.NoiseSpec(), latent=None):
+        return np.asarray(RO.rollout(params, phase_params, keyframes, key, spec, LENGTH, LENGTH, noise,
+                                     latent)["global_positions"])
 
-    total, terms, generated = _generator_loss(params, phase_params, batch, key, best3, LENGTH)
-    assert np.isfinite(float(total)) and generated["features"].shape[0] == size
-    # the best copy is at least as close as the copies' mean, and the copies differ (independent noise)
-    assert float(terms["prior_error_best"]) < float(terms["prior_error_mean"])
-    # the prior copies' ground truth enters the state and FK terms: replacing it changes them
-    changed = _changed_in_between(batch)
-    changed = {k: (v.at[-num_prior:].set(changed[k][-num_prior:]) if k in ("rotations", "contacts") else v)
-               for k, v in batch.items()}
-    assert abs(float(_generator_loss(params, phase_params, changed, key, best3, LENGTH)[1]["state"])
-               - float(terms["state"])) > 1e-4
-    grads = jax.grad(lambda p: _generator_loss(p, phase_params, batch, key, best3, LENGTH)[0])(params)
-    assert all(np.isfinite(np.asarray(g)).all() for g in jax.tree.leaves(grads))
-    with pytest.raises(ValueError, match="prior_best_of"):  # no prior window to repeat: refused, not ignored
-        _generator_loss(params, phase_params, batch, key, C.apply_overrides(config, ["loss.prior_best_of=2"]), LENGTH)
-    with pytest.raises(ValueError, match="prior_best_of"):
-        objective.prior_copies(batch, specs.loss_spec(C.apply_overrides(config, ["loss.prior_best_of=0"])))
+    np.testing.assert_array_equal(run(NZ.NoiseSpec(correlation=0.0)), run())
+    correlated = run(NZ.NoiseSpec(correlation=0.9))
+    assert np.abs(correlated - run()).max() > 1e-4
+    eps = jax.random.normal(key, (RO.num_steps(spec, LENGTH), 2, config.model.latent_dim))
+    given = run(NZ.NoiseSpec(correlation=0.9), {"noise": eps})
+    np.testing.assert_array_equal(given, correlated)
+    assert np.abs(run(latent={"noise": -eps}) - run()).max() > 1e-4
 
 
-def test_model_noise_correlation_is_the_rollouts_default_at_training_and_inference(setup):
-    """model.noise_correlation: a rollout without an explicit correlation uses the model's (training and the
-    samplers), an explicit one overrides it, and 0 keeps the paper's independent noise."""
-    config, params, phase_params, batch = setup
-    correlated = C.apply_overrides(config, ["model.noise_correlation=0.9"])
-    start, target, offsets = jax.tree.map(lambda x: x[0], BT.keyframes_from_batch(batch, LENGTH))
-    key = jax.random.PRNGKey(2)
-
-    def run(cfg, **kw):
-        return np.asarray(RO.rollout(params, phase_params, start, target, offsets, key, RO.rollout_spec(cfg), LENGTH,
-                                     LENGTH, **kw)["global_positions"])
-
-    np.testing.assert_array_equal(run(correlated), run(config, noise_correlation=0.9))
-    np.testing.assert_array_equal(run(correlated, noise_correlation=0.0), run(config))
-    assert np.abs(run(correlated) - run(config)).max() > 1e-4
-    # the training rollout reads it too: the prior windows move as the correlated sampler moves them
-    prior = BT.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(correlated), LENGTH, posterior=False)
-    plain = BT.rollout_batch(params, phase_params, batch, key, RO.rollout_spec(config), LENGTH, posterior=False)
-    assert float(jnp.abs(prior["global_positions"] - plain["global_positions"]).max()) > 1e-4
-
-
-@pytest.mark.parametrize("ahead", [1, 4])
-def test_posterior_horizon_shows_the_frame_k_ahead_with_the_roots_mean_velocity(setup, ahead):
-    """model.posterior_horizon = k: forward step j (making frame j) shows q frame min(j + k - 1, L + 1), the
-    backward step j (making frame L + 1 - j) frame max(L + 2 - j - k, 0), each with the root's mean velocity
-    in that direction's time since the frame the step starts from; k = 1 is the next frame itself."""
-    _, _, _, batch = setup
-    config = tiny_config(f"model.posterior_horizon={ahead}")
+def test_next_frame_states_are_the_states_of_the_frames_each_step_makes(setup):
+    """The posterior's inputs: forward step j (making frame j) shows q frame j, the backward step j (making
+    frame L + 1 - j) frame L + 1 - j, each with the root's velocity in that direction's time."""
+    config, _, _, batch = setup
     steps, length = 7, LENGTH
-    got = BT.next_frame_states(batch, length, steps, RO.rollout_spec(config))
-    root, scale = np.asarray(batch["root_positions"]), config.data.velocity_scale
+    scale = config.data.velocity_scale
+    got = BT.next_frame_states(batch, length, steps, scale)
+    root = np.asarray(batch["root_positions"])
     for name in ("forward", "backward"):
         rows = []
         for j in range(1, steps + 1):
-            step = max(j, min(j + ahead - 1, length + 1))
-            frame, before = (length + 1 - step, length + 2 - j) if name == "backward" else (step, j - 1)
-            velocity = (root[:, frame] - root[:, before]) / (step - j + 1) / scale
-            state = F.state_vector(batch["rotations"][:, frame], jnp.asarray(velocity), batch["contacts"][:, frame])
-            rows.append(state)
+            frame, before = (length + 1 - j, length + 2 - j) if name == "backward" else (j, j - 1)
+            velocity = (root[:, frame] - root[:, before]) / scale
+            rows.append(F.state_vector(batch["rotations"][:, frame], jnp.asarray(velocity),
+                                       batch["contacts"][:, frame]))
         np.testing.assert_allclose(got[name], jnp.stack(rows, axis=1), rtol=1e-6, atol=1e-6, err_msg=name)
-    if ahead > 1:  # the frames it shows differ from the next frame's
-        nearest = BT.next_frame_states(batch, length, steps, RO.rollout_spec(tiny_config()))
-        assert float(jnp.abs(got["forward"] - nearest["forward"]).max()) > 1e-3
-    with pytest.raises(ValueError, match="posterior_horizon"):
-        BT.next_frame_states(batch, length, steps, RO.rollout_spec(tiny_config("model.posterior_horizon=0")))

@@ -262,11 +262,12 @@ def test_cmu_take_at_120_fps_keeps_its_frame_numbers_rate_and_count(shared_data)
     import jax
 
     from stitchjax.data import datasets
+    from stitchjax import specs
     from stitchjax.train import loop as train
 
     folder = shared_data / "cmu"
     config = config_lib.apply_overrides(config_lib.load_config("cmu"), TINY_WIDTHS + ["train.max_length=10"])
-    state = train.create_train_state(config, jax.random.PRNGKey(0))
+    state = train.create_train_state(specs.train_spec(config), jax.random.PRNGKey(0))
     model = trained_model.model_from_state(config, state, None, datasets.skeleton_facts(folder, config.data), "test")
     cmu = bvh.load(folder / "01_01.bvh")
     assert cmu.fps == 120.0 and cmu.num_frames == 2752

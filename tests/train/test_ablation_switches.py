@@ -20,16 +20,16 @@ def tiny_config(*extra):
 @pytest.fixture(scope="module")
 def dataset():
     """The bundled sample's training windows cut to FRAMES frames (24 windows)."""
-    data, _ = datasets.load_training_data(tiny_config(), None)
+    data, _ = datasets.load_training_data(tiny_config().data, None)
     return {name: (x[:24, :FRAMES] if x.shape[1] > 1 else x[:24]) for name, x in data.items()}
 
 
 def _train(config, data, steps: int = 2):
     """(initial state, state after `steps` train steps at L = 6, the metrics of the last step)."""
     mesh = parallel.make_mesh()
-    state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
+    state = train.create_train_state(specs.train_spec(config), jax.random.PRNGKey(0), None, mesh)
     before = jax.device_get(state)
-    step = train.make_train_step(config, mesh)
+    step = train.make_train_step(specs.train_spec(config), mesh)
     device_data = parallel.shard_dataset(data, mesh)
     for _ in range(steps):
         state, metrics = step(state, device_data, jnp.int32(6))
@@ -59,7 +59,7 @@ def test_the_discriminator_switch_removes_exactly_the_adversarial_term_from_the_
     """Same parameters, batch and key: the two totals differ by alpha5 L_G, and only the switched-off loss lacks
     the adversarial terms."""
     on, off = tiny_config(), tiny_config("model.discriminators=false")
-    params = train.create_train_state(on, jax.random.PRNGKey(0)).params
+    params = train.create_train_state(specs.train_spec(on), jax.random.PRNGKey(0)).params
     batch = {name: jnp.asarray(x[:4]) for name, x in dataset.items()}
     key = jax.random.PRNGKey(3)
     total_on, terms_on, _ = objective.generator_loss(params, None, batch, key, specs.train_spec(on), 6)

@@ -176,9 +176,12 @@ def test_train_cli_checks_arguments_before_any_work(tmp_path):
     bad = _train(tmp_path / "run", "--max-steps", 0)
     assert bad.returncode == 2 and "--max-steps 0" in bad.stderr
     assert not (tmp_path / "run").exists()  # nothing started
-    bad = _train(tmp_path / "run", "--max-steps", 1, "model.posterior=none", "model.posterior_horizon=8")
-    assert bad.returncode == 2 and "model.posterior_horizon changes nothing" in bad.stderr
+    bad = _train(tmp_path / "run", "--max-steps", 1, "model.posterior=none", "loss.free_bits=2")
+    assert bad.returncode == 2 and "loss.free_bits changes nothing" in bad.stderr
     assert not (tmp_path / "run").exists()  # refused before any work
+    bad = _train(tmp_path / "run", "--max-steps", 1, "model.noise_correlation=0.5")  # a removed field
+    assert bad.returncode == 2 and "model.noise_correlation was removed" in bad.stderr
+    assert not (tmp_path / "run").exists()
     bad = _train(tmp_path / "run", "--max-steps", 1, JAX_COORDINATOR_ADDRESS="127.0.0.1:1", JAX_NUM_PROCESSES="2",
                  JAX_PROCESS_ID="x")
     assert bad.returncode == 2 and "JAX_PROCESS_ID='x'" in bad.stderr and "Traceback" not in bad.stderr

@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from stitchjax import checkpoints, config as config_lib, parallel
+from stitchjax import checkpoints, config as config_lib, parallel, specs
 from stitchjax.data import datasets
 from stitchjax.train import resume, schedule, loop as train
 
@@ -26,7 +26,7 @@ def tiny_config(*extra):
 @pytest.fixture(scope="module")
 def dataset():
     """The bundled sample's training windows cut to FRAMES frames (a few dozen windows)."""
-    data, stats = datasets.load_training_data(tiny_config(), None)
+    data, stats = datasets.load_training_data(tiny_config().data, None)
     return {name: (x[:24, :FRAMES] if x.shape[1] > 1 else x[:24]) for name, x in data.items()}, stats
 
 
@@ -63,10 +63,10 @@ def test_one_step_changes_every_parameter_group(dataset, extra):
     data, _ = dataset
     config = tiny_config(*extra)
     mesh = parallel.make_mesh()
-    state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
+    state = train.create_train_state(specs.train_spec(config), jax.random.PRNGKey(0), None, mesh)
     before = jax.device_get(state.params)
     phase_before = jax.device_get(state.phase_params)
-    step = train.make_train_step(config, mesh)
+    step = train.make_train_step(specs.train_spec(config), mesh)
     state, metrics = step(state, _device_data(data, mesh), jnp.int32(6))
     metrics = jax.device_get(metrics)
     assert int(state.step) == 1
@@ -87,8 +87,8 @@ def test_tiny_model_overfits_one_batch(dataset):
     config = tiny_config()  # the same compiled program as the other tests
     one_batch = {name: x[:4] for name, x in data.items()}
     mesh = parallel.make_mesh()
-    state = train.create_train_state(config, jax.random.PRNGKey(1), None, mesh)
-    step = train.make_train_step(config, mesh)
+    state = train.create_train_state(specs.train_spec(config), jax.random.PRNGKey(1), None, mesh)
+    step = train.make_train_step(specs.train_spec(config), mesh)
     device_data = _device_data(one_batch, mesh)
     losses = []
     for _ in range(300):
@@ -101,7 +101,7 @@ def test_tiny_model_overfits_one_batch(dataset):
 def _params(workdir):
     config = tiny_config()
     manager = checkpoints.open_manager(workdir)
-    state, _, extras = checkpoints.restore(manager, train.abstract_train_state(config))
+    state, _, extras = checkpoints.restore(manager, train.abstract_train_state(specs.train_spec(config)))
     checkpoints.close(manager)
     return jax.device_get(state), extras
 
@@ -109,7 +109,7 @@ def _params(workdir):
 def test_resume_equals_one_run_and_writes_report(dataset, tmp_path):
     data, stats = dataset
     config = tiny_config()
-    kwargs = dict(dataset=data, stats=stats, progress=False)
+    kwargs = dict(prepared=(data, stats), progress=False)
     train.train(config, tmp_path / "split", max_steps=3, **kwargs)
     summary = train.train(config, tmp_path / "split", max_steps=6, **kwargs)
     assert summary["start_step"] == 3 and summary["step"] == 6
@@ -133,14 +133,14 @@ def test_resume_refuses_a_different_model_config(dataset, tmp_path):
     checkpoints.save(manager, 5, {"step": jnp.int32(5)}, config_lib.to_dict(tiny_config()))
     checkpoints.close(manager)
     with pytest.raises(train.TrainingError, match="model config differs"):
-        train.train(tiny_config("model.latent_dim=8"), tmp_path, max_steps=6, dataset=data, stats=stats,
+        train.train(tiny_config("model.latent_dim=8"), tmp_path, max_steps=6, prepared=(data, stats),
                     progress=False)
 
 
 
 def test_init_from_starts_a_new_run_from_another_runs_state(dataset, tmp_path):
     data, stats = dataset
-    kwargs = dict(dataset=data, stats=stats, progress=False)
+    kwargs = dict(prepared=(data, stats), progress=False)
     train.train(tiny_config(), tmp_path / "base", max_steps=3, **kwargs)
     base, _ = _params(tmp_path / "base")
     with pytest.raises(train.TrainingError, match="model config differs"):
@@ -155,13 +155,11 @@ def test_init_from_starts_a_new_run_from_another_runs_state(dataset, tmp_path):
     summary = train.train(tuned_config, tmp_path / "tuned", max_steps=4, init_from=tmp_path / "base", **kwargs)
     assert summary["start_step"] == 4 and summary["step"] == 4
     manager = checkpoints.open_manager(tmp_path / "tuned")
-    _, saved_config, _ = checkpoints.restore(manager, train.abstract_train_state(tuned_config))
+    _, saved_config, _ = checkpoints.restore(manager, train.abstract_train_state(specs.train_spec(tuned_config)))
     checkpoints.close(manager)
     assert saved_config["loss"]["kl_weight"] == 0.5
     assert train.train(tuned_config, tmp_path / "tuned", max_steps=5, **kwargs)["start_step"] == 4  # resumes
-    fed = tiny_config("model.keyframe_velocity=mean")  # what the generators are fed: allowed too
-    assert train.train(fed, tmp_path / "fed", max_steps=5, init_from=tmp_path / "base", **kwargs)["start_step"] == 4
-    abstract = train.abstract_train_state(tiny_config())
+    abstract = train.abstract_train_state(specs.train_spec(tiny_config()))
     same = resume.state_from_run(config_lib.to_dict(tiny_config()), tmp_path / "base", abstract)
     other = resume.state_from_run(config_lib.to_dict(tiny_config("train.seed=1")), tmp_path / "base", abstract)
     assert int(other.step) == int(same.step) == 4  # a new seed: the same state but the key
@@ -184,7 +182,7 @@ def test_dataset_registry_has_every_allowed_name_and_its_facts():
 def test_nan_guard_names_the_term_and_keeps_last_good_checkpoint(dataset, tmp_path):
     data, stats = dataset
     config = tiny_config("train.checkpoint_every_steps=1")
-    real_step = train.make_train_step(config)
+    real_step = train.make_train_step(specs.train_spec(config))
 
     def poisoned_step(state, device_data, length):
         state, metrics = real_step(state, device_data, length)
@@ -193,7 +191,7 @@ def test_nan_guard_names_the_term_and_keeps_last_good_checkpoint(dataset, tmp_pa
         return state, metrics
 
     with pytest.raises(train.NonFiniteLossError, match=r"'kl' is nan at step 3.*step 2"):
-        train.train(config, tmp_path, max_steps=5, dataset=data, stats=stats, progress=False,
+        train.train(config, tmp_path, max_steps=5, prepared=(data, stats), progress=False,
                     train_step=poisoned_step)
     assert sorted(int(p.name) for p in checkpoints.checkpoint_dir(tmp_path).iterdir()) == [1, 2]
 
@@ -201,7 +199,7 @@ def test_nan_guard_names_the_term_and_keeps_last_good_checkpoint(dataset, tmp_pa
 def test_sigterm_saves_current_step_and_stops(dataset, tmp_path):
     data, stats = dataset
     config = tiny_config()
-    real_step = train.make_train_step(config)
+    real_step = train.make_train_step(specs.train_spec(config))
 
     def step_then_sigterm(state, device_data, length):
         state, metrics = real_step(state, device_data, length)
@@ -209,7 +207,7 @@ def test_sigterm_saves_current_step_and_stops(dataset, tmp_path):
             os.kill(os.getpid(), signal.SIGTERM)
         return state, metrics
 
-    summary = train.train(config, tmp_path, max_steps=50, dataset=data, stats=stats, progress=False,
+    summary = train.train(config, tmp_path, max_steps=50, prepared=(data, stats), progress=False,
                           train_step=step_then_sigterm)
     assert summary["stop_reason"] == "SIGTERM received" and summary["step"] == 2
     assert [p.name for p in checkpoints.checkpoint_dir(tmp_path).iterdir()] == ["2"]
@@ -219,16 +217,17 @@ DATA_PARALLEL_SCRIPT = """
 import jax, jax.numpy as jnp, numpy as np, sys
 sys.path.insert(0, {repo!r})
 from stitchjax import config as config_lib, parallel
+from stitchjax import specs
 from stitchjax.train import loop as train
 assert jax.device_count() == 4, jax.devices()
 config = config_lib.load_config("tiny")
 data = dict(np.load({data!r}))
 mesh = parallel.make_mesh()
 initial = np.load({initial!r})  # the main process's initial state (saves compiling the init again)
-abstract = train.abstract_train_state(config, mesh)
+abstract = train.abstract_train_state(specs.train_spec(config), mesh)
 leaves, treedef = jax.tree.flatten(abstract)
 state = jax.tree.unflatten(treedef, [jax.device_put(initial[f"arr_{{i}}"], x.sharding) for i, x in enumerate(leaves)])
-step = train.make_train_step(config, mesh)
+step = train.make_train_step(specs.train_spec(config), mesh)
 device_data = parallel.shard_dataset(data, mesh)
 for _ in range(2):
     state, metrics = step(state, device_data, jnp.int32(6))
@@ -244,9 +243,9 @@ def test_data_parallel_step_matches_single_device(dataset, tmp_path):
     np.savez(tmp_path / "data.npz", **data)
     config = tiny_config()
     mesh = parallel.make_mesh()
-    state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
+    state = train.create_train_state(specs.train_spec(config), jax.random.PRNGKey(0), None, mesh)
     np.savez(tmp_path / "initial.npz", *jax.device_get(jax.tree.leaves(state)))
-    step = train.make_train_step(config, mesh)
+    step = train.make_train_step(specs.train_spec(config), mesh)
     device_data = parallel.shard_dataset(data, mesh)
     for _ in range(2):
         state, metrics = step(state, device_data, jnp.int32(6))
@@ -281,7 +280,7 @@ def test_validation_during_training_logs_model_and_interpolation_rows(dataset, t
     data, stats = dataset
     config = tiny_config("train.eval_every=2", "train.eval_windows=3", "train.eval_lengths=5",
                          "train.eval_samples=2")
-    summary = train.train(config, tmp_path, max_steps=4, dataset=data, stats=stats, progress=False,
+    summary = train.train(config, tmp_path, max_steps=4, prepared=(data, stats), progress=False,
                           make_validator=validation.make_validator)
     records = reporting.read_metrics(tmp_path / "metrics.jsonl")
     rows = [r for r in records if "val_ade_L5" in r]
@@ -311,8 +310,8 @@ def test_learning_rate_decay_scales_the_update_like_a_smaller_learning_rate(data
                          "train.lr_decay_until_step=-1")  # past the decay at step 0: 2e-4 x 0.5
     after = {}
     for name, config in (("decayed", halved), ("plain", tiny_config("train.learning_rate=1e-4"))):
-        state = train.create_train_state(config, jax.random.PRNGKey(0), None, mesh)
-        state, metrics = train.make_train_step(config, mesh)(state, _device_data(data, mesh), jnp.int32(6))
+        state = train.create_train_state(specs.train_spec(config), jax.random.PRNGKey(0), None, mesh)
+        state, metrics = train.make_train_step(specs.train_spec(config), mesh)(state, _device_data(data, mesh), jnp.int32(6))
         after[name] = jax.device_get(state.params)
     assert float(metrics["loss"]) > 0 and "lr" not in metrics
     for a, b in zip(jax.tree.leaves(after["decayed"]), jax.tree.leaves(after["plain"])):
