@@ -185,7 +185,7 @@ def grid(args) -> None:
         windows, stats = windows_of(name, args.data, model)
         truth = scoring.ground_truth(windows, stats, FEET, metrics.LAFAN1_METRES_PER_UNIT, 1)
         for sampling in args.samplings:
-            for length in LENGTHS[name]:
+            for length in [n for n in LENGTHS[name] if not args.lengths or n in args.lengths]:
                 path = cache_path(args.cache, name, sampling, length)
                 if not os.path.exists(path):
                     raise SystemExit(f"{path} is missing: run the sample stage first")
@@ -317,6 +317,7 @@ def main(argv=None) -> None:
     p.add_argument("--candidates", required=True, help="JSON file {name: {FootLockConfig field: value}}")
     p.add_argument("--sets", nargs="+", default=["validation", "artefacts"], choices=tuple(LENGTHS))
     p.add_argument("--samplings", nargs="+", default=["paper", "default"], choices=("paper", "default"))
+    p.add_argument("--lengths", nargs="+", type=int, default=[], help="only these lengths (default: all of a set's)")
     p.add_argument("--cache", required=True)
     p.add_argument("--json", required=True)
     p.add_argument("--data", default="../shared/data/lafan1")

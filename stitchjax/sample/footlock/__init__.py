@@ -78,7 +78,7 @@ class FootLockConfig:
 
     height: float = 6.0
     speed: float = 6.0
-    replant_distance: float = 6.0
+    replant_distance: float = 15.0
     step_frames: int = 4
     blend_frames: int = 8
     clearance: float = 10.0
