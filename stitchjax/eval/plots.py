@@ -22,7 +22,8 @@ from stitchjax.eval.drawing import (CONTEXT_COLOR, DEFAULT_CMAP, KEYFRAME_COLOR,
                                     draw_skeleton_from_above, finish_figure, frame_axes, frame_colors,
                                     horizontal_axis, new_figure, project, sample_color)
 
-__all__ = ["stick_figure", "filmstrip", "FilmstripStyle", "FootLockFigureStyle", "body_width", "samples_overview", "root_trajectories", "error_over_time",
+__all__ = ["stick_figure", "filmstrip", "FilmstripStyle", "FootLockFigureStyle",
+           "body_width", "samples_overview", "root_trajectories", "error_over_time",
            "per_frame_error", "loss_curves", "time_to_quality", "foot_lock_before_after"]
 
 

@@ -33,8 +33,8 @@ from stitchjax.sample.sampling import Sampling
 from stitchjax.skeleton import forward_kinematics
 from stitchjax.sample.trained_model import InbetweenError, Model, model_or_pretrained
 
-__all__ = ["OUTPUTS", "OFFSET_FROM", "TakeOptions", "inbetween_takes", "inbetween_clip", "conform_take", "to_model_frame",
-           "from_model_frame", "default_length", "model_length", "root_speed_limit", "fewest_frames",
+__all__ = ["OUTPUTS", "OFFSET_FROM", "TakeOptions", "inbetween_takes", "inbetween_clip", "conform_take",
+           "to_model_frame", "from_model_frame", "default_length", "model_length", "root_speed_limit", "fewest_frames",
            "required_root_speed", "check_root_speed", "propose_take_length", "LAFAN1_ROOT_SPEED_P99"]
 
 # cm/s: the 99th percentile of the horizontal root speed of LAFAN1's training windows (subjects 1-4 of the
