@@ -57,15 +57,15 @@ def main(argv=None) -> int:
         model = trained_model.load_model(args.checkpoint)
     take = bvh.load(bundled.sample_files(["subject5"])[0])
     a, b = 100, 100 + args.length + 1
-    keys = dict(start_rotations=take.rotations[[a]], start_positions=take.positions[[a]],
-                start_contacts=[[1.0, 1.0, 0.0, 0.0]], target_rotations=take.rotations[[b]],
-                target_positions=take.positions[[b]], target_contacts=[[0.0, 0.0, 1.0, 1.0]])
+    keys = dict(start=inbetween.Keyframes(take.rotations[[a]], take.positions[[a]], [[1.0, 1.0, 0.0, 0.0]]),
+                target=inbetween.Keyframes(take.rotations[[b]], take.positions[[b]], [[0.0, 0.0, 1.0, 1.0]]))
     seed = iter(range(10_000))
     counts = {}
 
     def sampling(lock):
         return inbetween.transitions_in_frame(model, **keys, length=args.length, num_samples=args.samples,
-                                              seed=next(seed), foot_lock=lock, foot_lock_counts=counts)
+                                              seed=next(seed), sampling=inbetween.Sampling.paper(foot_lock=lock),
+                                              foot_lock_counts=counts)
 
     rows = {}
     for name, lock in (("sampling", False), ("sampling + pass", True)):

@@ -50,9 +50,8 @@ def bench(config_name: str, length: int, samples: int, runs: int) -> dict:
     model = trained_model.random_model(config, seed=0)
     take = bvh.load(bundled.sample_files(["subject5"])[0])
     a, b = 100, 100 + length + 1
-    keys = dict(start_rotations=take.rotations[[a]], start_positions=take.positions[[a]],
-                start_contacts=[[1.0, 1.0, 0.0, 0.0]], target_rotations=take.rotations[[b]],
-                target_positions=take.positions[[b]], target_contacts=[[0.0, 0.0, 1.0, 1.0]])
+    keys = dict(start=inbetween.Keyframes(take.rotations[[a]], take.positions[[a]], [[1.0, 1.0, 0.0, 0.0]]),
+                target=inbetween.Keyframes(take.rotations[[b]], take.positions[[b]], [[0.0, 0.0, 1.0, 1.0]]))
     params = sum(x.size for x in jax.tree.leaves(model.params))
     row = {"config": config_name, "generator_params": params, "device": str(jax.devices()[0])}
     for name, count in (("latency", 1), ("throughput", samples)):

@@ -1,16 +1,17 @@
 """Animated GIFs of motions playing side by side (Pillow writer), drawn with :mod:`stitchjax.eval.drawing`."""
 from __future__ import annotations
 
+import dataclasses
 import os
 import pathlib
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
 from stitchjax.eval.drawing import (DEFAULT_CMAP, draw_skeleton, frame_axes, frame_colors, horizontal_axis, new_figure,
                                     project)
 
-__all__ = ["animate", "gif_frames", "GIF_MAX_FPS"]
+__all__ = ["animate", "GifStyle", "gif_frames", "GIF_MAX_FPS"]
 
 # A GIF stores frame delays in hundredths of a second and browsers show a delay under 0.02 s as 0.1 s: a
 # motion above this rate is shown every k-th frame (its keyframes kept) so that it plays at its own speed.
@@ -49,10 +50,20 @@ def _panel(ax, motion, parents, axis, first_color, ymin: float, ymax: float, hal
     return screen, lines, centres
 
 
+@dataclasses.dataclass(frozen=True)
+class GifStyle:
+    """How :func:`animate` draws: the horizontal ``view`` (:mod:`stitchjax.eval.drawing`), the transition's
+    colour map ``cmap``, each panel's ``height`` (inches) and ``dpi``."""
+
+    view: Any = "auto"
+    cmap: str = DEFAULT_CMAP
+    height: float = 3.6
+    dpi: int = 80
+
+
 def animate(motions, parents, path, *, fps: float = 30.0, keyframes: Sequence[int] | None = None,
-            transition: tuple | None = None, titles: Sequence[str] | None = None, view="auto",
-            cmap: str = DEFAULT_CMAP, height: float = 3.6,
-            dpi: int = 80):
+            transition: tuple | None = None, titles: Sequence[str] | None = None, style: GifStyle | None = None,
+            **style_overrides):
     """Write an animated GIF (Pillow writer) of motions playing side by side, one panel each.
 
     motions: list of (T, J, 3) global positions, same T. The figure at a keyframe is black, during the
@@ -61,8 +72,11 @@ def animate(motions, parents, path, *, fps: float = 30.0, keyframes: Sequence[in
     default); a character that travels further than half its height is followed by the camera, and marks on
     the ground every quarter of the body's height scroll past, so root travel and foot sliding show. A motion
     faster than :data:`GIF_MAX_FPS` shows every k-th frame (:func:`gif_frames`), so it keeps its speed.
+    style: a :class:`GifStyle`; style_overrides: its fields as keywords on top of it (``dpi=40``, ...).
     Returns the path written.
     """
+    style = dataclasses.replace(style or GifStyle(), **style_overrides)
+    view, cmap, height, dpi = style.view, style.cmap, style.height, style.dpi
     from matplotlib.animation import FuncAnimation, PillowWriter
 
     motions = [np.asarray(m, dtype=np.float64) for m in motions]

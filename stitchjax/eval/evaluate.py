@@ -25,6 +25,7 @@ becomes one through :func:`model_method` (see bin/evaluate).
 """
 from __future__ import annotations
 
+import dataclasses
 import sys
 from typing import TYPE_CHECKING, Callable, Mapping, Protocol, Sequence
 
@@ -34,6 +35,7 @@ from stitchjax.eval import baselines, metrics, scoring
 from stitchjax.sample import inbetween
 from stitchjax.skeleton import forward_kinematics
 from stitchjax.sample.trained_model import InbetweenError, Model, load_model
+from stitchjax.sample.sampling import Sampling
 
 if TYPE_CHECKING:  # pragma: no cover
     from stitchjax.data.windows import Windows
@@ -188,22 +190,22 @@ def interpolation_method(windows, start, length, num_samples, seed):
 BASELINE_METHODS: dict[str, Callable] = {"interp": interpolation_method, "zerov": zero_velocity_method}
 
 
-def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correlation: float | None = None,
-                 noise_ramp_steps: int = 0, foot_lock=False):
+def model_method(model, sampling: Sampling | None = None, **overrides):
     """The model as a ``Method``:
     ``method(windows, start, length, num_samples, seed) -> (rotations (S, B, L, J, 4), positions (S, B, L, J, 3))``.
 
     model: a :class:`stitchjax.sample.trained_model.Model` or a checkpoint path (loaded once). The method uses frames
     ``start`` and ``start + length + 1`` of each window and their foot-contact labels from ``windows.contacts``
     (the keyframes' character state, as in training); it returns the L generated frames only.
-    search: latent pairs per sample (0: none); noise_scale: factor on the latent noise; noise_correlation:
-    its correlation from frame to frame (``noise.correlated_noise``; 0 or None: independent, the paper's);
-    noise_ramp_steps: its ramp from each keyframe (``noise.noise_ramp``; 0: none, the paper's).
-    foot_lock: plant the feet after sampling (:mod:`stitchjax.sample.footlock`; True or a ``FootLockConfig``); the
-    method's ``foot_lock_counts`` dict then adds up its planted, let-go, changed and lifted leg-frames.
+    sampling: a :class:`stitchjax.sample.sampling.Sampling` (default ``Sampling.paper()``: the paper's noise, no
+    search, no foot locking); overrides: its fields as keywords on top of it (search, noise_scale,
+    noise_correlation, noise_ramp_steps, foot_lock; None keeps a field). With foot locking
+    (:mod:`stitchjax.sample.footlock`) the method's ``foot_lock_counts`` dict adds up its planted, changed and
+    lifted leg-frames.
     """
     if not isinstance(model, Model):
         model = load_model(model)
+    sampling = (Sampling.paper() if sampling is None else sampling).replace(**overrides)
 
     def method(windows, start, length, num_samples, seed):
         inbetween._check_skeleton(model, windows.skeleton)
@@ -214,23 +216,22 @@ def model_method(model, search: int = 0, noise_scale: float = 1.0, noise_correla
         rot, pos = np.asarray(windows.rotations), np.asarray(windows.positions)
         contacts = np.asarray(windows.contacts)
         rotations, positions, _ = inbetween.transitions_in_frame(
-            model, rot[:, start], pos[:, start], contacts[:, start], rot[:, target], pos[:, target],
-            contacts[:, target], length, num_samples, seed, search, noise_scale, noise_correlation,
-            noise_ramp_steps, foot_lock=foot_lock, foot_lock_counts=method.foot_lock_counts)
+            model, inbetween.Keyframes(rot[:, start], pos[:, start], contacts[:, start]),
+            inbetween.Keyframes(rot[:, target], pos[:, target], contacts[:, target]), length, num_samples, seed,
+            sampling, foot_lock_counts=method.foot_lock_counts)
         # (B, S, L+2, ...) -> generated frames, samples first: (S, B, L, ...)
         return (np.swapaxes(rotations[:, :, 1:-1], 0, 1), np.swapaxes(positions[:, :, 1:-1], 0, 1))
 
     method.model = model
+    method.sampling = sampling
     method.foot_lock_counts = {}
     return method
 
 
-def evaluation_method(checkpoint, search: int = 0, noise_scale: float = 1.0,
-                      noise_correlation: float | None = None, noise_ramp_steps: int = 0):
+def evaluation_method(checkpoint, sampling: Sampling | None = None, **overrides):
     """:func:`model_method` of a checkpoint folder (``checkpoint`` may also be a loaded ``Model``)."""
     model = checkpoint if isinstance(checkpoint, Model) else load_model(checkpoint)
-    return model_method(model, search=search, noise_scale=noise_scale, noise_correlation=noise_correlation,
-                        noise_ramp_steps=noise_ramp_steps)
+    return model_method(model, sampling, **overrides)
 
 
 # --------------------------------------------------------------------------- protocol
@@ -302,26 +303,32 @@ def _protocol_length(methods: Mapping[str, Callable], windows: "Windows", truth:
     return entry
 
 
-def evaluate_protocol(
-    methods: Mapping[str, Callable],
-    windows: "Windows",
-    stats,
-    lengths: Sequence[int] = PROTOCOL_LENGTHS,
-    samples: int = 10,
-    start: int = START_FRAME,
-    feet: Sequence[int] = (3, 4, 7, 8),
-    metres_per_unit: float = metrics.LAFAN1_METRES_PER_UNIT,
-    up_axis: int = 1,
-    batch_size: int = 256,
-    seed: int = 0,
-    progress: bool = True,
-    settings: Mapping[str, str] | None = None,
-) -> dict:
+@dataclasses.dataclass(frozen=True)
+class Protocol:
+    """What :func:`evaluate_protocol` measures: transition ``lengths`` (frames), ``samples`` per window, the
+    ``start`` keyframe's frame, the contact joints ``feet`` (left foot, left toe, right foot, right toe),
+    ``metres_per_unit`` of the windows' positions, their ``up_axis`` and the ``seed`` of the first call."""
+
+    lengths: Sequence[int] = PROTOCOL_LENGTHS
+    samples: int = 10
+    start: int = START_FRAME
+    feet: Sequence[int] = (3, 4, 7, 8)
+    metres_per_unit: float = metrics.LAFAN1_METRES_PER_UNIT
+    up_axis: int = 1
+    seed: int = 0
+
+
+def evaluate_protocol(methods: Mapping[str, Callable], windows: "Windows", stats, protocol: Protocol | None = None, *,
+                      batch_size: int = 256, progress: bool = True, settings: Mapping[str, str] | None = None,
+                      **overrides) -> dict:
     """The paper's evaluation protocol (docs/design.md §6) for several methods through one code path.
 
     methods: name -> ``Method`` (e.g. {"model": ..., **BASELINE_METHODS}).
     windows: test windows (N, T, J, ...), centred and facing-aligned; stats: anything with
         ``mean`` and ``std`` (J*3,) of training global positions (for L2P).
+    protocol: a :class:`Protocol` (default ``Protocol()``: the paper's lengths, 10 samples); overrides: its
+        fields as keywords on top of it (``lengths=(10, 30)``, ``samples=2``, ...). batch_size: windows per
+        call of a method; progress: a progress bar on stderr.
     For each L in ``lengths``: start keyframe = ``start``, target keyframe = start + L + 1, the L
     generated frames start+1 .. start+L are scored. Foot slide: for every generated frame, the
     displacement to the next frame (the last one's is to the target keyframe), weighted by the
@@ -345,6 +352,9 @@ def evaluate_protocol(
     Returns {"n_windows", "samples", "lengths": {"L": {name: {metric: value}, "ground_truth":
     {"foot_slide", "penetration", ...: value}}}, "units": {...}}; see ``_units`` for the units of each metric.
     """
+    protocol = dataclasses.replace(protocol or Protocol(), **overrides)
+    lengths, samples, start, feet = protocol.lengths, protocol.samples, protocol.start, protocol.feet
+    metres_per_unit, up_axis, seed = protocol.metres_per_unit, protocol.up_axis, protocol.seed
     num_windows, num_frames = np.shape(windows.rotations)[:2]
     _check_protocol_lengths(lengths, start, num_frames)
     truth = scoring.ground_truth(windows, stats, feet, metres_per_unit, up_axis)

@@ -9,9 +9,10 @@ exactly (no tight bounding box), so callers and tests can rely on it. Views and 
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import textwrap
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import matplotlib
 import numpy as np
@@ -21,7 +22,8 @@ from stitchjax.eval.drawing import (CONTEXT_COLOR, DEFAULT_CMAP, KEYFRAME_COLOR,
                                     draw_skeleton_from_above, finish_figure, frame_axes, frame_colors,
                                     horizontal_axis, new_figure, project, sample_color)
 
-__all__ = ["stick_figure", "filmstrip", "body_width", "samples_overview", "root_trajectories", "error_over_time",
+__all__ = ["stick_figure", "filmstrip", "FilmstripStyle", "FootLockFigureStyle",
+           "body_width", "samples_overview", "root_trajectories", "error_over_time",
            "per_frame_error", "loss_curves", "time_to_quality", "foot_lock_before_after"]
 
 
@@ -118,12 +120,28 @@ def _draw_filmstrip_row(ax, motion, screen, drawn, keyframes, colors, parents, a
                       linewidth=1.6 if is_key else 1.2, zorder=3 if is_key else 2)
 
 
+@dataclasses.dataclass(frozen=True)
+class FilmstripStyle:
+    """How :func:`filmstrip` lays out and draws its rows (see there): the horizontal ``view``, the figures'
+    ``spacing`` and ``travel``, the transition's colour map ``cmap``, ``row_height`` (inches), ``dpi`` and a
+    fixed ``figsize`` (inches, or None)."""
+
+    view: Any = "auto"
+    spacing: float | None = None
+    travel: bool = False
+    cmap: str = DEFAULT_CMAP
+    row_height: float = 1.6
+    dpi: int = 100
+    figsize: tuple | None = None
+
+
 def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | None = None,
-              transition: tuple | None = None, titles: Sequence[str] | None = None, view="auto",
-              spacing: float | None = None, travel: bool = False, cmap: str = DEFAULT_CMAP,
-              row_height: float = 1.6, dpi: int = 100,
-              figsize=None, title: str | None = None, path=None) -> Figure:
+              transition: tuple | None = None, titles: Sequence[str] | None = None, title: str | None = None,
+              path=None, style: FilmstripStyle | None = None, **style_overrides) -> Figure:
     """Several motions as filmstrips, one row per motion, a stick figure every ``every`` frames.
+
+    style: a :class:`FilmstripStyle` (default ``FilmstripStyle()``); style_overrides: its fields as keywords on
+    top of it (``travel=True``, ``dpi=80``, ...).
 
     motions: list of (T, J, 3) global positions (Y-up), or one (S, T, J, 3) array; all the same T.
     keyframes: frame indices drawn in black and always drawn (default: first and last frame).
@@ -138,6 +156,9 @@ def filmstrip(motions, parents, *, every: int = 5, keyframes: Sequence[int] | No
     Figure size: ``figsize``, or ``row_height`` inches per row and the width that keeps the poses'
     aspect ratio (plus room for the titles).
     """
+    style = dataclasses.replace(style or FilmstripStyle(), **style_overrides)
+    view, spacing, travel, cmap = style.view, style.spacing, style.travel, style.cmap
+    row_height, dpi, figsize = style.row_height, style.dpi, style.figsize
     motions = _checked_motions(motions, parents, every)
     num_frames = motions[0].shape[0]
     keyframes = (0, num_frames - 1) if keyframes is None else tuple(int(k) % num_frames for k in keyframes)
@@ -458,9 +479,18 @@ def _shade_spans(ax, mask, color, alpha, label=None):
         ax.axvspan(a - 0.5, b - 0.5, color=color, alpha=alpha, linewidth=0, label=label if k == 0 else None)
 
 
+@dataclasses.dataclass(frozen=True)
+class FootLockFigureStyle:
+    """How :func:`foot_lock_before_after` looks: the legs' names in order, the size (inches) and dpi."""
+
+    leg_names: Sequence[str] = ("left", "right")
+    figsize: tuple = (8.0, 4.6)
+    dpi: int = 90
+
+
 def foot_lock_before_after(before, after, planted, feet, *, let_go=None, ground: float = 0.0, up_axis: int = 1,
-                           leg_names: Sequence[str] = ("left", "right"), figsize=(8.0, 4.6), dpi: int = 90,
-                           title: str | None = None, path=None) -> Figure:
+                           title: str | None = None, path=None, style: FootLockFigureStyle | None = None,
+                           **style_overrides) -> Figure:
     """Foot heights and sliding along one transition without and with foot locking (``stitchjax.sample.footlock``).
 
     before, after: (T, J, 3) global positions (keyframes included); planted: (T, legs) bool frames held by a
@@ -468,7 +498,10 @@ def foot_lock_before_after(before, after, planted, feet, *, let_go=None, ground:
     contact joints (ankle, toe, ...) per leg in order; ground: the ground height (file units).
     Top row: each leg's lowest foot joint above the ground; bottom row: its ankle's horizontal displacement
     to the next frame (file units per frame), dashed without the pass, solid with it.
+    style: a :class:`FootLockFigureStyle`; style_overrides: its fields as keywords on top of it.
     """
+    style = dataclasses.replace(style or FootLockFigureStyle(), **style_overrides)
+    leg_names, figsize, dpi = style.leg_names, style.figsize, style.dpi
     before, after = np.asarray(before, np.float64), np.asarray(after, np.float64)
     planted = np.asarray(planted, bool)
     legs = len(feet) // 2

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import functools
 import warnings
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -48,12 +49,13 @@ from stitchjax import skeleton as skeleton_lib
 from stitchjax.data.bvh import Motion
 from stitchjax.sample import footlock
 from stitchjax.skeleton import forward_kinematics
-from stitchjax.sample.trained_model import InbetweenError, Model, check_sampling, model_or_pretrained
+from stitchjax.sample.sampling import Sampling
+from stitchjax.sample.trained_model import InbetweenError, Model, model_or_pretrained
 from stitchjax.data.windows import CONTACT_THRESHOLD, center_and_face, facing_rotation, foot_contacts
 
 __all__ = [
-    "InbetweenError", "inbetween", "sampling_settings", "sample_transitions", "transitions_in_frame", "keyframe_contacts",
-    "stitch_losses", "check_length",
+    "InbetweenError", "Keyframes", "Sampling", "inbetween", "resolve_sampling", "sample_transitions",
+    "transitions_in_frame", "keyframe_contacts", "stitch_losses", "check_length",
 ]
 
 CONTACT_HEIGHT = 4.0  # file units (cm): single-frame contact guess, see keyframe_contacts
@@ -126,30 +128,22 @@ def _check_request(model: Model, length: int, num_samples: int, search: int, war
 
 
 def sample_transitions(model: Model, start: dict, target: dict, offsets, length: int, num_samples: int,
-                       seed=0, search: int = 0, noise_scale: float = 1.0,
-                       noise_correlation: float | None = None, noise_ramp_steps: int = 0) -> dict:
+                       seed=0, sampling: Sampling | None = None) -> dict:
     """Transitions in the model's frame for B keyframe pairs (no alignment, no keyframe overwrite).
 
     start, target: {"rotations" (B, J, 4), "root_position" (B, 3), "contacts" (B, C)}, already centred
       and facing-aligned; offsets: (B, J, 3) bone offsets (root row ignored).
     Returns numpy float32 {"rotations" (B, S, L+2, J, 4), "root_positions" (B, S, L+2, 3), "contacts"
       (B, S, L+2, C), "global_positions" (B, S, L+2, J, 3), "stitch_loss" (B, S)}, S = num_samples.
+    sampling: the noise and the search (default :meth:`Sampling.paper`; its foot locking is not applied here).
     With ``search=M`` the M x S candidates of a window are drawn with the same keys as plain sampling
     of M x S samples, and the S with the lowest stitching loss are returned in increasing order.
-    noise_scale: factor on the latent noise (0: every sample is the same, the prior's mean path).
-    noise_correlation: in [0, 1], the noise's correlation from one frame to the next (0: independent per
-      frame, the paper's; ``noise.correlated_noise``); None: 0.
-    noise_ramp_steps: >= 0; the noise of each direction rises linearly from 0 at the frame next to its
-      keyframe to full at this many steps (0: full from the first frame, the paper's; ``noise.noise_ramp``).
     """
-    _check_request(model, length, num_samples, search, warn=True)
-    if noise_correlation is None:
-        noise_correlation = 0.0
-    noise = check_sampling({"noise_scale": noise_scale, "noise_correlation": noise_correlation,
-                            "noise_ramp_steps": noise_ramp_steps})  # InbetweenError naming a bad one
-    candidates = num_samples * max(int(search), 1)
-    fn = _compiled_sampler(model.rollout_spec, int(length), int(candidates), noise["noise_scale"],
-                           noise["noise_correlation"], noise["noise_ramp_steps"])
+    sampling = Sampling.paper() if sampling is None else sampling
+    _check_request(model, length, num_samples, sampling.search, warn=True)
+    candidates = num_samples * max(sampling.search, 1)
+    fn = _compiled_sampler(model.rollout_spec, int(length), int(candidates), sampling.noise_scale,
+                           sampling.noise_correlation, sampling.noise_ramp_steps)
     as32 = functools.partial(jnp.asarray, dtype=jnp.float32)
     out = fn(model.params, model.phase_params, jax.tree.map(as32, start), jax.tree.map(as32, target),
              as32(offsets), _as_key(seed))
@@ -206,35 +200,42 @@ def _check_skeleton(model: Model, skeleton):
                              f"{' ...' if len(diff) > 4 else ''}); rename or reorder the joints")
 
 
-def transitions_in_frame(model: Model, start_rotations, start_positions, start_contacts, target_rotations,
-                         target_positions, target_contacts, length: int, num_samples: int, seed=0,
-                         search: int = 0, noise_scale: float = 1.0, noise_correlation: float | None = None,
-                         noise_ramp_steps: int = 0, foot_lock=False, foot_lock_counts: dict | None = None):
+class Keyframes(NamedTuple):
+    """B keyframes in any world frame: local rotations (B, J, 4), local positions (B, J, 3) (root = world
+    position, others = bone offsets) and foot contacts (B, C)."""
+
+    rotations: np.ndarray
+    positions: np.ndarray
+    contacts: np.ndarray
+
+
+def transitions_in_frame(model: Model, start: Keyframes, target: Keyframes, length: int, num_samples: int, seed=0,
+                         sampling: Sampling | None = None, foot_lock_counts: dict | None = None):
     """Transitions between B keyframe pairs given in any world frame, returned in that frame.
 
-    Keyframes: local rotations (B, J, 4), local positions (B, J, 3) (root = world position, others
-    = bone offsets), contacts (B, C). Returns (rotations (B, S, L+2, J, 4), positions (B, S, L+2, J, 3),
-    stitch_loss (B, S)) float64: frame 0 and L+1 are the input keyframes exactly; non-root local
-    positions are the start keyframe's bone offsets.
-    foot_lock: False (the default here: the transitions as the model made them), True
-    (``footlock.DEFAULT_CONFIG``) or a ``footlock.FootLockConfig``: plant the feet with the predicted contacts
+    start, target: :class:`Keyframes` (or (rotations, positions, contacts) tuples). Returns (rotations
+    (B, S, L+2, J, 4), positions (B, S, L+2, J, 3), stitch_loss (B, S)) float64: frame 0 and L+1 are the
+    input keyframes exactly; non-root local positions are the start keyframe's bone offsets.
+    sampling: noise, search and foot locking (default :meth:`Sampling.paper`: no foot locking, the transitions
+    as the model made them); with foot locking the feet are planted with the predicted contacts
     (:func:`stitchjax.sample.footlock.lock_feet`, in the input's frame, +Y up).
     foot_lock_counts: a dict to which the pass adds "leg_frames", "planted", "changed" and "lifted" counts.
     """
-    sr, sp = np.asarray(start_rotations, np.float64), np.asarray(start_positions, np.float64)
-    tr, tp = np.asarray(target_rotations, np.float64), np.asarray(target_positions, np.float64)
+    sampling = Sampling.paper() if sampling is None else sampling
+    start, target = Keyframes(*start), Keyframes(*target)
+    sr, sp = np.asarray(start.rotations, np.float64), np.asarray(start.positions, np.float64)
+    tr, tp = np.asarray(target.rotations, np.float64), np.asarray(target.positions, np.float64)
     parents = model.parents
     if sr.ndim != 3 or sr.shape[1:] != (len(parents), 4) or sp.shape != sr.shape[:2] + (3,) \
             or tr.shape != sr.shape or tp.shape != sp.shape:
         raise InbetweenError(f"keyframes must be rotations (B, {len(parents)}, 4) and positions (B, "
                              f"{len(parents)}, 3); got {sr.shape}, {sp.shape}, {tr.shape}, {tp.shape}")
     aligned_rot, aligned_pos, turn, centre = _alignment(sr, sp, tr, tp, parents, model.forward_axis)
-    start = {"rotations": aligned_rot[:, 0], "root_position": aligned_pos[:, 0, 0],
-             "contacts": np.asarray(start_contacts, np.float64)}
-    target = {"rotations": aligned_rot[:, 1], "root_position": aligned_pos[:, 1, 0],
-              "contacts": np.asarray(target_contacts, np.float64)}
-    out = sample_transitions(model, start, target, sp, length, num_samples, seed, search, noise_scale,
-                             noise_correlation, noise_ramp_steps)
+    start_state = {"rotations": aligned_rot[:, 0], "root_position": aligned_pos[:, 0, 0],
+                   "contacts": np.asarray(start.contacts, np.float64)}
+    target_state = {"rotations": aligned_rot[:, 1], "root_position": aligned_pos[:, 1, 0],
+                    "contacts": np.asarray(target.contacts, np.float64)}
+    out = sample_transitions(model, start_state, target_state, sp, length, num_samples, seed, sampling)
 
     rotations = out["rotations"].astype(np.float64)  # (B, S, T, J, 4)
     roots = out["root_positions"].astype(np.float64)  # (B, S, T, 3)
@@ -250,19 +251,19 @@ def transitions_in_frame(model: Model, start_rotations, start_positions, start_c
     positions[..., 0, :] = roots
     positions[:, :, 0] = sp[:, None]
     positions[:, :, -1] = tp[:, None]
-    if foot_lock is not False and foot_lock is not None:
-        rotations = _locked(model, rotations, positions, out["contacts"], foot_lock, foot_lock_counts)
+    if sampling.locks_feet:
+        rotations = _locked(model, rotations, positions, out["contacts"], sampling.foot_lock_config,
+                            foot_lock_counts)
     return rotations, positions, out["stitch_loss"].astype(np.float64)
 
 
-def _locked(model: Model, rotations, positions, contacts, config, counts: dict | None):
-    """``footlock.lock_transitions`` of (B, S, T, ...) transitions on the model's skeleton; the counts of
-    planted, changed and lifted leg-frames (generated frames only) added to ``counts``."""
-    config = footlock.DEFAULT_CONFIG if config is True else config
+def _locked(model: Model, rotations, positions, contacts, lock: footlock.FootLockConfig, counts: dict | None):
+    """``footlock.lock_transitions`` of (B, S, T, ...) transitions on the model's skeleton with ``lock``; the
+    counts of planted, changed and lifted leg-frames (generated frames only) added to ``counts``."""
     names = model.joint_names or tuple(f"joint{j}" for j in range(model.num_joints))
     # the structure only (a static argument of the jitted pass): each transition's own offsets are passed
     skeleton = skeleton_lib.Skeleton(names, model.parents, np.zeros((model.num_joints, 3)))
-    locked, _, stats = footlock.lock_transitions(rotations, positions, contacts, skeleton, model.feet, config,
+    locked, _, stats = footlock.lock_transitions(rotations, positions, contacts, skeleton, model.feet, lock,
                                                  sample_axis=1)
     if counts is not None:
         inner = stats["planted"][..., 1:-1, :]
@@ -283,40 +284,34 @@ def _keyframe(motion: Motion, which: str):
         raise InbetweenError(f"{which} has no frames")
 
 
-def sampling_settings(model: Model, noise_scale=None, noise_correlation=None, noise_ramp_steps=None) -> tuple:
-    """(noise_scale, noise_correlation, noise_ramp_steps): each one given, else the model's default
-    (``model.sampling``)."""
-    default = model.sampling
-    return (default["noise_scale"] if noise_scale is None else noise_scale,
-            default["noise_correlation"] if noise_correlation is None else noise_correlation,
-            default["noise_ramp_steps"] if noise_ramp_steps is None else noise_ramp_steps)
+def resolve_sampling(model: Model, sampling: Sampling | None = None, **overrides) -> Sampling:
+    """``sampling`` (default ``model.sampling``, the model's default) with ``overrides`` (Sampling field ->
+    value; None keeps the field): the keyword form of the public sampling functions."""
+    return (model.sampling if sampling is None else sampling).replace(**overrides)
 
 
-def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samples: int = 1, seed=0,
-              search: int = 0, start_contacts=None, target_contacts=None, allow_extrapolation: bool = False, *,
-              noise_scale: float | None = None, noise_ramp_steps: int | None = None,
-              noise_correlation: float | None = None, foot_lock=True) -> list:
+def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samples: int = 1, seed=0, *,
+              sampling: Sampling | None = None, start_contacts=None, target_contacts=None,
+              allow_extrapolation: bool = False, **overrides) -> list:
     """Generate ``num_samples`` transitions of ``length`` frames from ``start`` to ``target``.
 
     model: a :class:`Model`, or None for the release model (``stitchjax.pretrained()``).
     start: Motion whose LAST frame is the start keyframe (earlier frames, if any, are context: the one
       before the keyframe measures its foot contacts). target: Motion whose FIRST frame is the target
       keyframe (a following frame, if any, measures its contacts). Both on the model's skeleton.
-    length: generated frames L >= 1. seed: int or jax PRNG key. search: 0 = plain sampling; M >= 1 =
-      try M latent pairs per wanted sample and keep the num_samples with the lowest stitching loss.
+    length: generated frames L >= 1. seed: int or jax PRNG key.
+    sampling: a :class:`Sampling` (noise, latent-pair search, foot locking); default ``model.sampling``, the
+      model's default (the release model's noise is chosen on the validation split to spread the samples
+      visibly; a training run's is the paper's, ``model.paper_sampling``; feet locked).
+    overrides: Sampling fields given as keywords on top of it (None keeps the field): noise_scale (factor on
+      the latent noise; 0: one motion, the prior's mean), noise_correlation (from one frame to the next, in
+      [0, 1]; ``noise.correlated_noise``), noise_ramp_steps (frames over which the noise rises from 0 next to
+      the keyframes; ``noise.noise_ramp``), search (0 = plain sampling; M >= 1 = try M latent pairs per wanted
+      sample and keep the num_samples with the lowest stitching loss), foot_lock (plant the feet where the model
+      predicts contact, on the keyframes' ground, :mod:`stitchjax.sample.footlock`: True, False for the
+      transitions as the model made them, or a ``FootLockConfig``; the keyframes stay exact either way).
     start_contacts / target_contacts: (C,) foot contacts to use instead of measuring them.
     allow_extrapolation: a length beyond ``model.trained_max_length`` is an InbetweenError unless True.
-    noise_scale: factor on the latent noise (1: the model's own spread; 0: one motion, the prior's mean);
-    noise_ramp_steps: the noise rises from 0 at the frames next to the keyframes to full over this many
-      frames (0: full from the first frame, the paper's sampling; ``noise.noise_ramp``);
-    noise_correlation: the noise's correlation from one frame to the next (0: independent per frame, the
-      paper's; ``noise.correlated_noise``).
-      Each of the three left None takes the model's default sampling (``model.sampling``: the release model's
-      is chosen on the validation split to spread the samples visibly; a training run's is the paper's,
-      ``model.paper_sampling``).
-    foot_lock: plant the feet where the model predicts contact, on the keyframes' ground (:mod:`stitchjax.sample.
-      footlock`; True, the default, False for the transitions as the model made them, or a ``FootLockConfig``);
-      the keyframes stay exact either way.
     The keyframes must be on the model's skeleton, frame rate and units (see
     :func:`stitchjax.sample.takes.inbetween_takes`, which brings takes from anywhere onto them).
     Returns a list of ``num_samples`` Motions of L + 2 frames (start keyframe, L generated frames,
@@ -325,13 +320,12 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     :func:`transitions_in_frame` for the stitching losses.
     """
     model = model_or_pretrained(model)
-    noise_scale, noise_correlation, noise_ramp_steps = sampling_settings(model, noise_scale, noise_correlation,
-                                                                         noise_ramp_steps)
+    sampling = resolve_sampling(model, sampling, **overrides)
     _keyframe(start, "start")
     _keyframe(target, "target")
     _check_skeleton(model, start.skeleton)
     _check_skeleton(model, target.skeleton)
-    _check_request(model, length, num_samples, search)
+    _check_request(model, length, num_samples, sampling.search)
     check_length(model, length, allow_extrapolation)
     parents = model.parents
     start_global = forward_kinematics(start.rotations[-2:], start.positions[-2:], parents)[1]
@@ -343,10 +337,9 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
         target_contacts = keyframe_contacts(target_global[0], model.feet,
                                             target_global[1] if target.num_frames > 1 else None)
     rotations, positions, _ = transitions_in_frame(
-        model, start.rotations[-1:], start.positions[-1:], np.asarray(start_contacts)[None],
-        target.rotations[:1], target.positions[:1], np.asarray(target_contacts)[None], length, num_samples,
-        seed, search, noise_scale=noise_scale, noise_correlation=noise_correlation,
-        noise_ramp_steps=noise_ramp_steps, foot_lock=foot_lock)
+        model, Keyframes(start.rotations[-1:], start.positions[-1:], np.asarray(start_contacts)[None]),
+        Keyframes(target.rotations[:1], target.positions[:1], np.asarray(target_contacts)[None]), length,
+        num_samples, seed, sampling)
     return [start.with_frames(rotations[0, s], positions[0, s]) for s in range(num_samples)]
 
 

@@ -27,12 +27,14 @@ from stitchjax.data import conform
 from stitchjax import rotations as R
 from stitchjax.data.bvh import Motion
 from stitchjax.sample import length as length_lib
-from stitchjax.sample.inbetween import _check_request, _check_skeleton, check_length, inbetween, keyframe_contacts
+from stitchjax.sample.inbetween import (_check_request, _check_skeleton, check_length, inbetween, keyframe_contacts,
+                                       resolve_sampling)
+from stitchjax.sample.sampling import Sampling
 from stitchjax.skeleton import forward_kinematics
 from stitchjax.sample.trained_model import InbetweenError, Model, model_or_pretrained
 
-__all__ = ["OUTPUTS", "OFFSET_FROM", "inbetween_takes", "inbetween_clip", "conform_take", "to_model_frame",
-           "from_model_frame", "default_length", "model_length", "root_speed_limit", "fewest_frames",
+__all__ = ["OUTPUTS", "OFFSET_FROM", "TakeOptions", "inbetween_takes", "inbetween_clip", "conform_take",
+           "to_model_frame", "from_model_frame", "default_length", "model_length", "root_speed_limit", "fewest_frames",
            "required_root_speed", "check_root_speed", "propose_take_length", "LAFAN1_ROOT_SPEED_P99"]
 
 # cm/s: the 99th percentile of the horizontal root speed of LAFAN1's training windows (subjects 1-4 of the
@@ -178,13 +180,42 @@ def check_root_speed(model: Model, start_root, target_root, length: int, take_fp
 OFFSET_FROM = ("start", "file")
 
 
+@dataclasses.dataclass(frozen=True)
+class TakeOptions:
+    """How :func:`inbetween_takes` places the target take and what it returns.
+
+    offset: (x, y, z) from the start keyframe's root (``offset_from="start"``: horizontally, the height as
+      given) or from where the target take's own file has it (``"file"``) to the target keyframe's root; the
+      takes' units and axes, before ``scale``. turn_degrees: turn of the target take about the up axis through
+      its keyframe's root. scale: factor on both takes' positions. output: one of :data:`OUTPUTS`.
+    allow_extrapolation: allow a transition longer than the model's training lengths.
+    allow_fast: allow a transition faster than the training data's root speed (:func:`check_root_speed`).
+    """
+
+    offset: tuple = (0.0, 0.0, 0.0)
+    turn_degrees: float = 0.0
+    offset_from: str = "start"
+    scale: float = 1.0
+    output: str = "appended"
+    allow_extrapolation: bool = False
+    allow_fast: bool = False
+
+
+def _split_overrides(options: TakeOptions | None, overrides: dict) -> tuple:
+    """(TakeOptions with the keywords that name its fields, the remaining keywords: Sampling fields)."""
+    names = {f.name for f in dataclasses.fields(TakeOptions)}
+    options = dataclasses.replace(options or TakeOptions(), **{k: v for k, v in overrides.items() if k in names})
+    return options, {k: v for k, v in overrides.items() if k not in names}
+
+
 def _placed_target(model: Model, start_take: Motion, start_frame: int, target_take: Motion, target_frame: int,
-                   offset, turn_degrees: float, scale: float, offset_from: str, same: bool) -> Motion:
-    """The target take (model terms, its own frame rate) turned by ``turn_degrees`` about its keyframe's
-    root and moved so that its keyframe's root lies ``offset`` (the takes' units and axes, before ``scale``)
-    from the start keyframe's root (``offset_from="start"``; horizontally, the height offset as given) or
-    from where its own file has it (``"file"``). A target keyframe of the start take itself with no offset stays
-    where it is (turned about its root, if asked); unmoved with ``"file"`` and neither."""
+                   options: TakeOptions, same: bool) -> Motion:
+    """The target take (model terms, its own frame rate) turned by ``options.turn_degrees`` about its keyframe's
+    root and moved so that its keyframe's root lies ``options.offset`` (the takes' units and axes, before
+    ``options.scale``) from the start keyframe's root (``offset_from="start"``; horizontally, the height offset as
+    given) or from where its own file has it (``"file"``). A target keyframe of the start take itself with no
+    offset stays where it is (turned about its root, if asked); unmoved with ``"file"`` and neither."""
+    offset, turn_degrees, scale, offset_from = options.offset, options.turn_degrees, options.scale, options.offset_from
     try:
         offset = np.asarray(offset, np.float64)
         if offset.shape != (3,):
@@ -237,8 +268,8 @@ def propose_take_length(model: Model, start_take: Motion, start_frame: int, targ
     same = target_take is start_take
     start_take = conform_take(model, start_take, "the start take", scale)
     target_take = start_take if same else conform_take(model, target_take, "the target take", scale)
-    target_take = _placed_target(model, start_take, start_frame, target_take, target_frame, offset, turn_degrees,
-                                 scale, offset_from, same)
+    target_take = _placed_target(model, start_take, start_frame, target_take, target_frame,
+                                 TakeOptions(offset, turn_degrees, offset_from, scale), same)
     poses = []
     for take, frame in ((start_take, start_frame), (target_take, target_frame)):
         rotations, positions = forward_kinematics(take.rotations[[frame]], take.positions[[frame]],
@@ -268,10 +299,12 @@ def _check_takes_request(start_take, start_frame, target_take, target_frame, out
 
 
 def _take_outputs(model: Model, samples: list, start_take: Motion, start_frame: int, target_take: Motion,
-                  target_frame: int, generated: int, length: int, take_fps: float, output: str, scale: float) -> list:
+                  target_frame: int, generated: int, length: int, take_fps: float, options: TakeOptions) -> list:
     """The generated ``samples`` (``generated`` frames at the model's rate) put between the takes' frames as
-    ``output`` says, ``length`` frames at the start take's rate ``take_fps``, in the takes' own units and axes.
-    start_take, target_take: on the model's terms (:func:`conform_take`, the target placed)."""
+    ``options.output`` says, ``length`` frames at the start take's rate ``take_fps``, in the takes' own units
+    and axes (``options.scale`` undone). start_take, target_take: on the model's terms (:func:`conform_take`,
+    the target placed)."""
+    output, scale = options.output, options.scale
     fps = float(model.config.data.fps)
     # the target take at the start take's rate, its keyframe at index b_out
     target_out, b_out = _at_rate(target_take, take_fps, target_frame)
@@ -290,14 +323,16 @@ def _take_outputs(model: Model, samples: list, start_take: Motion, start_frame: 
 
 
 def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_take: Motion, target_frame: int,
-                    length: int | str | None = None, num_samples: int = 1, seed=0, search: int = 0, *,
-                    offset=(0.0, 0.0, 0.0), turn_degrees: float = 0.0, output: str = "appended",
-                    scale: float = 1.0, allow_extrapolation: bool = False, noise_scale: float | None = None,
-                    noise_ramp_steps: int | None = None, noise_correlation: float | None = None,
-                    offset_from: str = "start", allow_fast: bool = False, foot_lock=True) -> list:
+                    length: int | str | None = None, num_samples: int = 1, seed=0, *,
+                    options: TakeOptions | None = None, sampling: Sampling | None = None, **overrides) -> list:
     """Transitions from frame ``start_frame`` of one take to frame ``target_frame`` of another (or the same).
     ``model``: a :class:`Model`, or None for the release model (``stitchjax.pretrained()``); the same in
     :func:`inbetween_clip`.
+
+    options: a :class:`TakeOptions` (placement, output, what to allow; default ``TakeOptions()``); sampling: a
+    :class:`stitchjax.sample.sampling.Sampling` (default ``model.sampling``, the model's default, feet locked).
+    overrides: fields of either given as keywords on top of them (``offset=(300, 0, 0)``, ``search=4``,
+    ``foot_lock=False``, ...; a None sampling field keeps it).
 
     Both takes are brought onto the model's terms first (:func:`conform_take`: the training files' units and
     up axis to cm and +Y up, joints by name, units checked; ``scale`` multiplies their positions). The
@@ -316,49 +351,48 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     output: "transition" = the start keyframe, L generated frames, the placed target keyframe (L + 2 frames);
       "appended" = the start take's frames 0..start_frame, the L generated frames and the target keyframe;
       "clip" = "appended" followed by the rest of the (placed) target take.
-    noise_scale, noise_ramp_steps, noise_correlation: how far the samples spread (None: the model's default
-    sampling; :func:`stitchjax.sample.inbetween.inbetween`); foot_lock: plant the feet (:mod:`stitchjax.sample.footlock`;
-    True by default, False to keep the transitions as the model made them, or a ``FootLockConfig``).
+    The sampling: noise (how far the samples spread), latent-pair search and foot locking as in
+    :func:`stitchjax.sample.inbetween.inbetween`.
     Returns ``num_samples`` Motions at the start take's frame rate on the model's skeleton (the takes' own
     skeleton and channel layout when their joints already match), positions in the takes' units and axes
     (exact for cm, +Y-up models, else to float64 rounding); the takes' own frames, keyframes included, are
     kept as they are.
     """
     model = model_or_pretrained(model)  # None: the release model
-    _check_takes_request(start_take, start_frame, target_take, target_frame, output, offset_from, scale)
+    options, sampling_overrides = _split_overrides(options, overrides)
+    sampling = resolve_sampling(model, sampling, **sampling_overrides)
+    _check_takes_request(start_take, start_frame, target_take, target_frame, options.output, options.offset_from,
+                         options.scale)
     same = target_take is start_take
     take_fps, fps = float(start_take.fps), float(model.config.data.fps)
     if isinstance(length, str):
         if length != "auto":
             raise InbetweenError(f"length {length!r}: give a number of frames, or 'auto' to have it proposed")
-        length = propose_take_length(model, start_take, start_frame, target_take, target_frame, offset=offset,
-                                     turn_degrees=turn_degrees, scale=scale, offset_from=offset_from).frames
+        length = propose_take_length(model, start_take, start_frame, target_take, target_frame,
+                                     offset=options.offset, turn_degrees=options.turn_degrees, scale=options.scale,
+                                     offset_from=options.offset_from).frames
     if length is None:
         length = default_length(model, start_take, start_frame, target_frame, same)
     generated = model_length(model, take_fps, length)
-    _check_request(model, generated, num_samples, search)
-    check_length(model, generated, allow_extrapolation)
-    start_take = conform_take(model, start_take, "the start take", scale)
-    target_take = start_take if same else conform_take(model, target_take, "the target take", scale)
-    target_take = _placed_target(model, start_take, start_frame, target_take, target_frame, offset, turn_degrees,
-                                 scale, offset_from, same)
+    _check_request(model, generated, num_samples, sampling.search)
+    check_length(model, generated, options.allow_extrapolation)
+    start_take = conform_take(model, start_take, "the start take", options.scale)
+    target_take = start_take if same else conform_take(model, target_take, "the target take", options.scale)
+    target_take = _placed_target(model, start_take, start_frame, target_take, target_frame, options, same)
     start_m, a = _at_rate(start_take, fps, start_frame)
     target_m, b = _at_rate(target_take, fps, target_frame)
-    check_root_speed(model, start_m.positions[a, 0], target_m.positions[b, 0], generated, take_fps, allow_fast)
+    check_root_speed(model, start_m.positions[a, 0], target_m.positions[b, 0], generated, take_fps,
+                     options.allow_fast)
     start_contacts = _neighbour_contacts(model, start_m, a, -1)
     target_contacts = _neighbour_contacts(model, target_m, b, +1)
-    samples = inbetween(model, start_m[a], target_m[b], generated, num_samples, seed, search,
-                        start_contacts, target_contacts, allow_extrapolation=True, noise_scale=noise_scale,
-                        noise_ramp_steps=noise_ramp_steps, noise_correlation=noise_correlation,
-                        foot_lock=foot_lock)
+    samples = inbetween(model, start_m[a], target_m[b], generated, num_samples, seed, sampling=sampling,
+                        start_contacts=start_contacts, target_contacts=target_contacts, allow_extrapolation=True)
     return _take_outputs(model, samples, start_take, start_frame, target_take, target_frame, generated, length,
-                         take_fps, output, scale)
+                         take_fps, options)
 
 
 def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: int, length: int | str | None = None,
-                   num_samples: int = 1, seed=0, search: int = 0, allow_extrapolation: bool = False, *,
-                   noise_scale: float | None = None, noise_ramp_steps: int | None = None,
-                   noise_correlation: float | None = None, allow_fast: bool = False, foot_lock=True) -> list:
+                   num_samples: int = 1, seed=0, *, sampling: Sampling | None = None, **overrides) -> list:
     """Replace the frames between two keyframes of a take by generated transitions.
 
     Keyframes: ``motion`` frames ``start_frame`` (A) and ``end_frame`` (B), A < B. length: generated
@@ -372,10 +406,10 @@ def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: in
     resampled back, so the result keeps the take's frame rate and (with the default length) its frame
     count; :func:`model_length` says how many frames the model generates. Joints are
     mapped by name and the units checked as in :func:`inbetween_takes`. A length beyond the model's
-    training lengths is refused unless ``allow_extrapolation``. noise_scale, noise_ramp_steps,
-    noise_correlation: how far the samples spread (None: the model's default sampling;
-    :func:`stitchjax.sample.inbetween.inbetween`); foot_lock: plant the feet (:mod:`stitchjax.sample.footlock`;
-    True by default, False to keep the transitions as the model made them, or a ``FootLockConfig``).
+    training lengths is refused unless ``allow_extrapolation=True``; a transition faster than the training
+    data's root speed unless ``allow_fast=True``. sampling, and Sampling fields as keywords (noise_scale,
+    noise_correlation, noise_ramp_steps, search, foot_lock): as in :func:`inbetween_takes` (default
+    ``model.sampling``, feet locked).
     """
     if not isinstance(motion, Motion):
         raise InbetweenError(f"expected a stitchjax.data.bvh.Motion, got {type(motion).__name__}")
@@ -383,7 +417,5 @@ def inbetween_clip(model: Model, motion: Motion, start_frame: int, end_frame: in
     _check_frame(motion, end_frame, "end frame")
     if end_frame <= start_frame:
         raise InbetweenError(f"end frame {end_frame} must come after start frame {start_frame}")
-    return inbetween_takes(model, motion, start_frame, motion, end_frame, length, num_samples, seed, search,
-                           output="clip", allow_extrapolation=allow_extrapolation, noise_scale=noise_scale,
-                           noise_ramp_steps=noise_ramp_steps, noise_correlation=noise_correlation,
-                           allow_fast=allow_fast, foot_lock=foot_lock)
+    return inbetween_takes(model, motion, start_frame, motion, end_frame, length, num_samples, seed,
+                           sampling=sampling, output="clip", **overrides)

@@ -73,7 +73,7 @@ class Model:
       unit_scale: centimetres per unit of the training files (takes are scaled by it, and back).
       default_sampling: {"noise_scale", "noise_correlation", "noise_ramp_steps"} that :func:`stitchjax.sample.inbetween.
         inbetween` and ``bin/inbetween`` use when not told otherwise (an exported model's ``model.json``
-        "sampling"), or None for the paper's (see :attr:`sampling`).
+        "sampling"), or None for the paper's (:attr:`sampling` is it as a ``Sampling`` spec).
     up_axis, forward_axis and unit_scale come from the checkpoint (``extras["skeleton"]``, :func:`stitchjax.data.datasets.skeleton_facts`).
     """
 
@@ -90,15 +90,20 @@ class Model:
     default_sampling: dict | None = None
 
     @property
-    def paper_sampling(self) -> dict:
-        """The paper's sampling: noise x1, full from the first frame, independent per frame."""
-        return {"noise_scale": 1.0, "noise_correlation": 0.0, "noise_ramp_steps": 0}
+    def paper_sampling(self):
+        """The paper's sampling (a :class:`stitchjax.sample.sampling.Sampling`): noise x1, full from the first
+        frame, independent per frame, no search, no foot locking."""
+        from stitchjax.sample.sampling import Sampling  # reason: sampling.py builds on this module
+
+        return Sampling.paper()
 
     @property
-    def sampling(self) -> dict:
-        """The sampling used when a call gives none: ``default_sampling`` over :attr:`paper_sampling`."""
-        chosen = {k: v for k, v in (self.default_sampling or {}).items() if k in SAMPLING_KEYS}
-        return {**self.paper_sampling, **chosen}
+    def sampling(self):
+        """The sampling used when a call gives none (a :class:`stitchjax.sample.sampling.Sampling`): the noise of
+        ``default_sampling`` over the paper's, no search, feet locked (``footlock.DEFAULT_CONFIG``)."""
+        from stitchjax.sample.sampling import Sampling  # reason: sampling.py builds on this module
+
+        return Sampling.from_json(self.default_sampling, foot_lock=True)
 
     @functools.cached_property
     def rollout_spec(self) -> rollout_lib.RolloutSpec:
@@ -128,10 +133,9 @@ class Model:
         return f"Model({self.config.name!r}, {self.num_joints} joints, {self.source})"
 
 
-def _default_facts(config) -> dict:
+def _default_facts(data: config_lib.DataConfig) -> dict:
     """The skeleton facts of a checkpoint saved without them (before they were saved): those of its
-    dataset (LAFAN1 / H36M), or for a BVH folder what its config declares (joint names unknown)."""
-    data = config.data
+    dataset (LAFAN1 / H36M), or for a BVH folder what its data config declares (joint names unknown)."""
     facts = datasets.skeleton_facts(None, data)
     if facts is not None and len(facts["joint_names"]) == len(data.parents):
         return facts
@@ -139,9 +143,10 @@ def _default_facts(config) -> dict:
             "forward_axis": data.forward_axis or "+y", "unit_scale": float(data.unit_scale) or 1.0}
 
 
-def _facts_fields(config, facts: dict | None) -> dict:
-    """Model fields (joint_names, feet, up_axis, forward_axis, unit_scale) from saved facts, else defaults."""
-    defaults = _default_facts(config)
+def _facts_fields(data: config_lib.DataConfig, facts: dict | None) -> dict:
+    """Model fields (joint_names, feet, up_axis, forward_axis, unit_scale) from saved facts, else the defaults
+    of the data config ``data``."""
+    defaults = _default_facts(data)
     facts = {**defaults, **{k: v for k, v in (facts or {}).items() if v not in (None, "", [])}}
     names = tuple(facts["joint_names"]) if facts["joint_names"] else None
     feet = tuple(int(j) for j in facts["feet"])
@@ -186,17 +191,21 @@ def _readable_config(workdir, step):
     return checkpoints.read_config_json(workdir, steps[0] if steps else None)
 
 
-def _sampling_abstract(config) -> dict:
+def _phase_init(data: config_lib.DataConfig, phase_config: config_lib.PhaseConfig, key):
+    """Fresh phase network parameters for the character state of ``data``."""
+    return phase.init_phase_params(key, features.state_dim(data.num_joints, data.num_contacts), phase_config)
+
+
+def _sampling_abstract(spec: networks.ModelSpec, data: config_lib.DataConfig,
+                       phase_config: config_lib.PhaseConfig | None) -> dict:
     """Shapes (replicated) of what sampling restores from a train state: {"params": {"forward", "backward"}}
-    and, with phase modulation, {"phase_params": ...}; no discriminator, no optimiser state."""
+    of the networks of ``spec`` (``networks.model_spec``) and, with phase modulation (``phase_config`` not
+    None), {"phase_params": ...}; no discriminator, no optimiser state."""
     key = jax.random.PRNGKey(0)
-    spec = networks.model_spec(config)
     generators = jax.eval_shape(lambda k: networks.init_params(spec, k), key)
     wanted = {"params": {"forward": generators["forward"], "backward": generators["backward"]}}
-    if config.model.phase_modulation:
-        wanted["phase_params"] = jax.eval_shape(
-            lambda k: phase.init_phase_params(k, features.state_dim(config.data.num_joints, config.data.num_contacts),
-                                              config.phase), key)
+    if phase_config is not None:
+        wanted["phase_params"] = jax.eval_shape(lambda k: _phase_init(data, phase_config, k), key)
     sharding = parallel.replicated(parallel.make_mesh())
     return jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), wanted)
 
@@ -224,7 +233,8 @@ def load_model(checkpoint, step: int | None = None) -> Model:
         config = config_lib.from_dict(_readable_config(workdir, step))
         manager = checkpoints.open_manager(workdir, read_only=True)
         try:
-            abstract = _sampling_abstract(config)
+            abstract = _sampling_abstract(networks.model_spec(config), config.data,
+                                          config.phase if config.model.phase_modulation else None)
             if step is None:  # the newest checkpoint that restores, naming any broken one on stderr
                 state, _, extras, step = checkpoints.restore_newest_good(manager, abstract, partial=True)
             else:
@@ -341,7 +351,8 @@ def _load_exported(folder: pathlib.Path) -> Model:
         raise FileNotFoundError(f"{params_path} is missing: export the model again (bin/export)")
     config = config_lib.from_dict(description["config"])
     tree = serialization.msgpack_restore(params_path.read_bytes())
-    expected = _sampling_abstract(config)
+    expected = _sampling_abstract(networks.model_spec(config), config.data,
+                                  config.phase if config.model.phase_modulation else None)
     stored = {"params": tree.get("generators", {})}
     if config.model.phase_modulation:
         stored["phase_params"] = tree.get("phase")
@@ -394,7 +405,7 @@ def model_from_state(config, state, stats_json: dict | None, facts: dict | None,
     stats = {k: np.asarray(v, np.float64) for k, v in (stats_json or {}).items()}
     params = {"forward": state.params["forward"], "backward": state.params["backward"]}
     phase_params = state.phase_params if config.model.phase_modulation else None
-    return Model(config, params, phase_params, stats=stats, source=source, **_facts_fields(config, facts))
+    return Model(config, params, phase_params, stats=stats, source=source, **_facts_fields(config.data, facts))
 
 
 def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None) -> Model:
@@ -404,10 +415,8 @@ def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None
     params = jax.jit(lambda k: networks.init_params(spec, k))(key)
     phase_params = None
     if config.model.phase_modulation:
-        phase_params = phase.init_phase_params(jax.random.fold_in(key, 1),
-                                               features.state_dim(config.data.num_joints, config.data.num_contacts),
-                                               config.phase)
-    fields = _facts_fields(config, None)
+        phase_params = _phase_init(config.data, config.phase, jax.random.fold_in(key, 1))
+    fields = _facts_fields(config.data, None)
     if joint_names is not None:
         fields["joint_names"] = tuple(joint_names)
     return Model(config, {"forward": params["forward"], "backward": params["backward"]}, phase_params,

@@ -8,6 +8,7 @@ import pytest
 
 from stitchjax.data import bvh, bundled
 from stitchjax.sample import inbetween, trained_model
+from stitchjax.sample.sampling import Sampling
 
 from bin_scripts import load_cli
 
@@ -35,18 +36,22 @@ def _positions(model, take, **noise):
 def test_a_training_run_samples_as_the_paper(tiny_run):
     model = trained_model.load_model(tiny_run)
     assert model.default_sampling is None
-    assert model.sampling == model.paper_sampling == {"noise_scale": 1.0, "noise_correlation": 0.0,
-                                                      "noise_ramp_steps": 0}
+    assert model.sampling.noise == model.paper_sampling.noise == {"noise_scale": 1.0, "noise_correlation": 0.0,
+                                                                  "noise_ramp_steps": 0}
+    assert model.sampling == Sampling.paper(foot_lock=True)  # the API's default locks the feet
+    assert model.paper_sampling == Sampling() and model.paper_sampling.foot_lock is False
 
 
 def test_export_stores_the_sampling_and_the_api_uses_it(exported, tiny_run, take):
     description = json.loads((exported / "model.json").read_text())
     assert description["sampling"] == WIDE and description["notes"]["sampling"] == "a test"
     model = trained_model.load_model(exported)
-    assert model.sampling == WIDE
+    assert model.sampling.noise == WIDE and model.sampling == Sampling.from_json(WIDE, foot_lock=True)
     default = _positions(model, take)
     np.testing.assert_array_equal(default, _positions(model, take, **WIDE))
-    paper = _positions(model, take, **model.paper_sampling)
+    np.testing.assert_array_equal(default, _positions(model, take, sampling=model.sampling))
+    paper = _positions(model, take, **model.paper_sampling.noise)
+    np.testing.assert_array_equal(paper, _positions(model, take, sampling=model.paper_sampling.replace(foot_lock=True)))
     assert np.abs(default - paper).max() > 1e-3  # the default is not the paper's sampling
     # one setting given, the others from the default
     np.testing.assert_array_equal(_positions(model, take, noise_scale=1.0),

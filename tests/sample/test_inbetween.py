@@ -129,13 +129,12 @@ def test_result_follows_the_keyframes_when_the_world_turns(model, take):
 
 
 def test_search_keeps_the_lowest_stitching_losses(model, take):
-    keys = dict(start_rotations=take.rotations[[100]], start_positions=take.positions[[100]],
-                start_contacts=np.ones((1, 4)), target_rotations=take.rotations[[110]],
-                target_positions=take.positions[[110]], target_contacts=np.zeros((1, 4)))
+    keys = dict(start=inbetween.Keyframes(take.rotations[[100]], take.positions[[100]], np.ones((1, 4))),
+                target=inbetween.Keyframes(take.rotations[[110]], take.positions[[110]], np.zeros((1, 4))))
     rot_all, pos_all, loss_all = inbetween.transitions_in_frame(model, **keys, length=LENGTH,
                                                                 num_samples=CANDIDATES, seed=7)
     rot, pos, loss = inbetween.transitions_in_frame(model, **keys, length=LENGTH, num_samples=2, seed=7,
-                                                    search=CANDIDATES // 2)
+                                                    sampling=inbetween.Sampling.paper(search=CANDIDATES // 2))
     assert loss_all.shape == (1, CANDIDATES) and loss.shape == (1, 2)
     assert np.all(loss_all > 0) and len(np.unique(loss_all)) == CANDIDATES
     order = np.argsort(loss_all[0])[:2]
@@ -305,9 +304,11 @@ def test_evaluate_default_sampling_samples_both_model_rows_as_inbetween_does(mod
                                                           "noise_ramp_steps": 4})
     args = ["model", "--checkpoint", "run", "--data", "data"]
     parse = cli.build_parser().parse_args
-    assert cli.model_sampling(parse(args), chosen) == (1.0, chosen.paper_sampling["noise_correlation"], 0)
-    assert cli.model_sampling(parse(args + ["--default-sampling"]), chosen) == (2.5, 0.9, 4)
-    assert cli.model_sampling(parse(args + ["--default-sampling", "--noise-ramp", "0"]), chosen) == (2.5, 0.9, 0)
+    Sampling = inbetween.Sampling
+    assert cli.model_sampling(parse(args), chosen) == Sampling.paper()
+    assert cli.model_sampling(parse(args + ["--default-sampling"]), chosen) == Sampling(2.5, 0.9, 4)
+    assert cli.model_sampling(parse(args + ["--default-sampling", "--noise-ramp", "0", "--search", "2"]),
+                              chosen) == Sampling(2.5, 0.9, 0, search=2)
 
 
 def test_cli_foot_lock_flag_keeps_the_keyframes(tiny_run, take, tmp_path):
