@@ -80,8 +80,9 @@ def windows_of(name: str, data: str, model):
     return windows, lafan1.train_statistics(data)
 
 
-def sampling_of(name: str, model) -> dict:
-    return dict(model.paper_sampling if name == "paper" else model.sampling)
+def sampling_of(name: str, model):
+    """The Sampling of the set (foot locking on, so that the pass is reached and its inputs captured)."""
+    return (model.paper_sampling if name == "paper" else model.sampling).replace(foot_lock=True)
 
 
 class _Capture:
@@ -116,15 +117,16 @@ def sample(args) -> None:
             for k, i in enumerate(range(0, len(rot), CHUNK)):
                 c = slice(i, i + CHUNK)
                 inbetween.transitions_in_frame(
-                    model, rot[c, START], pos[c, START], con[c, START], rot[c, target], pos[c, target],
-                    con[c, target], length, SAMPLES, seed=length * 10_007 + k, foot_lock=True, **sampling)
+                    model, (rot[c, START], pos[c, START], con[c, START]), (rot[c, target], pos[c, target],
+                                                                           con[c, target]),
+                    length, SAMPLES, seed=length * 10_007 + k, sampling=sampling)
         finally:
             footlock.lock_transitions = real
         parts = list(zip(*capture.parts))
         np.savez(path, rotations=np.concatenate(parts[0]), roots=np.concatenate(parts[1]),
                  offsets=np.concatenate(parts[2]), contacts=np.concatenate(parts[3]).astype(np.float32))
         print(f"{path}: {len(rot)} windows x {SAMPLES} samples, {time.time() - started:.0f} s", flush=True)
-    info = {"set": args.set, "sampling": sampling, "windows": int(len(rot)), "samples": SAMPLES,
+    info = {"set": args.set, "sampling": sampling.noise, "windows": int(len(rot)), "samples": SAMPLES,
             "lengths": LENGTHS[args.set], "model": model.source, **provenance(started)}
     with open(os.path.join(args.cache, f"{args.set}_{args.sampling}.json"), "w") as f:
         json.dump(info, f, indent=1)

@@ -17,8 +17,12 @@ take = bvh.load(bundled.sample_files(["subject5"])[0])
 outs = []
 for a, L, kw in ((100, 30, {}), (300, 50, dict(noise_scale=1.0, noise_correlation=0.0, noise_ramp_steps=0)), (500, 15, dict(search=4))):
     b = a + L + 1
-    r = inbetween.transitions_in_frame(model, take.rotations[[a]], take.positions[[a]], [[1.0, 1.0, 0.0, 0.0]],
-                                       take.rotations[[b]], take.positions[[b]], [[0.0, 0.0, 1.0, 1.0]],
-                                       length=L, num_samples=6, seed=3, **kw)
+    start = (take.rotations[[a]], take.positions[[a]], [[1.0, 1.0, 0.0, 0.0]])
+    target = (take.rotations[[b]], take.positions[[b]], [[0.0, 0.0, 1.0, 1.0]])
+    if hasattr(inbetween, "Keyframes"):  # the Sampling spec (paper's by default)
+        r = inbetween.transitions_in_frame(model, start, target, length=L, num_samples=6, seed=3,
+                                           sampling=inbetween.Sampling.paper().replace(**kw))
+    else:  # loose sampling arguments
+        r = inbetween.transitions_in_frame(model, *start, *target, length=L, num_samples=6, seed=3, **kw)
     outs += [np.asarray(x) for x in r if hasattr(x, 'shape')]
 np.savez(sys.argv[1], *outs)
