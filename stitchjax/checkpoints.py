@@ -126,7 +126,7 @@ def restore(manager: ocp.CheckpointManager, abstract_state: Any, step: int | Non
     return restored["state"], restored["config"], restored["extras"] or {}
 
 
-def _short(error: BaseException) -> str:
+def short_error(error: BaseException) -> str:
     """The first line of an orbax / TensorStore error, cut to a readable length."""
     text = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
     text = text.split(" See full TensorStore details")[0].rstrip(" .")
@@ -222,10 +222,10 @@ def restore_newest_good(manager: ocp.CheckpointManager, abstract_state: Any,
         try:
             state, config_json, extras = restore(manager, abstract_state, step, partial)
         except Exception as error:  # orbax / TensorStore raise many types for a broken folder
-            failures.append(f"{directory / str(step)}: {_short(error)}")
+            failures.append(f"{directory / str(step)}: {short_error(error)}")
             if report is not None:
                 older = steps[i + 1] if i + 1 < len(steps) else None
-                report(f"warning: checkpoint {directory / str(step)} cannot be restored ({_short(error)}); "
+                report(f"warning: checkpoint {directory / str(step)} cannot be restored ({short_error(error)}); "
                        + (f"falling back to step {older}" if older is not None else "no older checkpoint left"))
             continue
         if not failures:  # nothing is left reading in the background: the loggers as they were

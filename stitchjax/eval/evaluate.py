@@ -51,7 +51,7 @@ CONTACT_KEYS = ("penetration", "penetration_max", "penetration_share", "toe_clea
                 "knee_turn_max", "joint_jump_max")  # ground truth has them too
 
 
-def _units(metres_per_unit: float) -> dict:
+def metric_units(metres_per_unit: float) -> dict:
     return {
         "apd": "m",
         "spread": "cm (mean pairwise per-joint distance between samples, per frame)",
@@ -155,7 +155,7 @@ def benchmark_baselines(
             entry[name] = {"l2q": metrics.l2q(q, gt_q), "l2p": metrics.l2p(p, gt_p, train_stats.mean, train_stats.std),
                            "npss": metrics.npss(q, gt_q)}
         results[str(n)] = entry
-    units = _units(metrics.LAFAN1_METRES_PER_UNIT)
+    units = metric_units(metrics.LAFAN1_METRES_PER_UNIT)
     return {
         "n_windows": int(num_windows),
         "samples": 1,
@@ -208,7 +208,7 @@ def model_method(model, sampling: Sampling | None = None, **overrides):
     sampling = (Sampling.paper() if sampling is None else sampling).replace(**overrides)
 
     def method(windows, start, length, num_samples, seed):
-        inbetween._check_skeleton(model, windows.skeleton)
+        inbetween.check_skeleton(model, windows.skeleton)
         target = start + length + 1
         if not 0 <= start < target < windows.rotations.shape[1]:
             raise InbetweenError(f"keyframes {start} and {target} are outside windows of "
@@ -350,7 +350,7 @@ def evaluate_protocol(methods: Mapping[str, Callable], windows: "Windows", stats
     settings: optional method name -> a short description (e.g. "search 16, noise x1"), kept in the
     results and printed beside the method.
     Returns {"n_windows", "samples", "lengths": {"L": {name: {metric: value}, "ground_truth":
-    {"foot_slide", "penetration", ...: value}}}, "units": {...}}; see ``_units`` for the units of each metric.
+    {"foot_slide", "penetration", ...: value}}}, "units": {...}}; see ``metric_units`` for the units of each metric.
     """
     protocol = dataclasses.replace(protocol or Protocol(), **overrides)
     lengths, samples, start, feet = protocol.lengths, protocol.samples, protocol.start, protocol.feet
@@ -369,6 +369,6 @@ def evaluate_protocol(methods: Mapping[str, Callable], windows: "Windows", stats
         "n_windows": int(num_windows),
         "samples": int(samples),
         "lengths": results,
-        "units": _units(metres_per_unit),
+        "units": metric_units(metres_per_unit),
         "settings": {name: str((settings or {}).get(name, "")) for name in methods},
     }

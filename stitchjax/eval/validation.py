@@ -12,7 +12,7 @@ windows every time, at each length of ``train.eval_lengths``, with z from the pr
 
 ``*_interp`` is the interpolation baseline on the same windows (computed once), so ``loss_curves.png`` shows
 in one panel per metric when the model starts to beat it. Units: ADE, SLDE and APD in metres, foot slide in
-cm/frame, NPSS unitless (``evaluate._units``).
+cm/frame, NPSS unitless (``evaluate.metric_units``).
 """
 from __future__ import annotations
 

@@ -114,7 +114,7 @@ def _as_key(seed):
     return seed
 
 
-def _check_request(model: Model, length: int, num_samples: int, search: int, warn: bool = False):
+def check_request(model: Model, length: int, num_samples: int, search: int, warn: bool = False):
     if int(length) != length or length < 1:
         raise InbetweenError(f"transition length must be a whole number of frames >= 1, got {length}")
     if int(num_samples) != num_samples or num_samples < 1:
@@ -140,7 +140,7 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
     of M x S samples, and the S with the lowest stitching loss are returned in increasing order.
     """
     sampling = Sampling.paper() if sampling is None else sampling
-    _check_request(model, length, num_samples, sampling.search, warn=True)
+    check_request(model, length, num_samples, sampling.search, warn=True)
     candidates = num_samples * max(sampling.search, 1)
     fn = _compiled_sampler(model.rollout_spec, int(length), int(candidates), sampling.noise_scale,
                            sampling.noise_correlation, sampling.noise_ramp_steps)
@@ -158,7 +158,7 @@ def sample_transitions(model: Model, start: dict, target: dict, offsets, length:
 # ----------------------------------------------------------------------------- alignment and contacts
 
 
-def _alignment(start_rotations, start_positions, target_rotations, target_positions, parents,
+def align_keyframes(start_rotations, start_positions, target_rotations, target_positions, parents,
                forward_axis=(0.0, 1.0, 0.0)):
     """Keyframes (B, J, *) in the model's frame plus the (turn (B, 4), centre (B, 3)) that undo it.
     The start keyframe's root is faced along +X by its local ``forward_axis`` (the model's, as in training)."""
@@ -188,7 +188,7 @@ def keyframe_contacts(global_positions, feet, neighbour=None, threshold: float =
     return (heights - heights.min() < CONTACT_HEIGHT).astype(np.float64)
 
 
-def _check_skeleton(model: Model, skeleton):
+def check_skeleton(model: Model, skeleton):
     if tuple(skeleton.parents) != model.parents:
         raise InbetweenError(
             f"skeleton mismatch: the motion has {skeleton.num_joints} joints with parents "
@@ -230,7 +230,7 @@ def transitions_in_frame(model: Model, start: Keyframes, target: Keyframes, leng
             or tr.shape != sr.shape or tp.shape != sp.shape:
         raise InbetweenError(f"keyframes must be rotations (B, {len(parents)}, 4) and positions (B, "
                              f"{len(parents)}, 3); got {sr.shape}, {sp.shape}, {tr.shape}, {tp.shape}")
-    aligned_rot, aligned_pos, turn, centre = _alignment(sr, sp, tr, tp, parents, model.forward_axis)
+    aligned_rot, aligned_pos, turn, centre = align_keyframes(sr, sp, tr, tp, parents, model.forward_axis)
     start_state = {"rotations": aligned_rot[:, 0], "root_position": aligned_pos[:, 0, 0],
                    "contacts": np.asarray(start.contacts, np.float64)}
     target_state = {"rotations": aligned_rot[:, 1], "root_position": aligned_pos[:, 1, 0],
@@ -323,9 +323,9 @@ def inbetween(model: Model, start: Motion, target: Motion, length: int, num_samp
     sampling = resolve_sampling(model, sampling, **overrides)
     _keyframe(start, "start")
     _keyframe(target, "target")
-    _check_skeleton(model, start.skeleton)
-    _check_skeleton(model, target.skeleton)
-    _check_request(model, length, num_samples, sampling.search)
+    check_skeleton(model, start.skeleton)
+    check_skeleton(model, target.skeleton)
+    check_request(model, length, num_samples, sampling.search)
     check_length(model, length, allow_extrapolation)
     parents = model.parents
     start_global = forward_kinematics(start.rotations[-2:], start.positions[-2:], parents)[1]

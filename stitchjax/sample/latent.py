@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from stitchjax.model import rollout as rollout_lib
-from stitchjax.sample.inbetween import _alignment, _check_request, _check_skeleton, stitch_losses
+from stitchjax.sample.inbetween import align_keyframes, check_request, check_skeleton, stitch_losses
 from stitchjax.sample.trained_model import InbetweenError, Model
 
 __all__ = ["noise_shape", "window_keyframes", "rollout_details", "checkpoint_from_env", "DEMO"]
@@ -81,12 +81,12 @@ def _compiled_details(spec, length: int):
 def window_keyframes(model: Model, windows, start: int, length: int) -> tuple:
     """Keyframes of B windows in the model's frame: (start, target, offsets) as ``sample_transitions``
     takes them; target = frame start + length + 1; contacts from ``windows.contacts``."""
-    _check_skeleton(model, windows.skeleton)
+    check_skeleton(model, windows.skeleton)
     target = start + length + 1
     if not 0 <= start < target < windows.rotations.shape[1]:
         raise InbetweenError(f"keyframes {start} and {target} are outside windows of {windows.rotations.shape[1]} frames")
     rot, pos = np.asarray(windows.rotations, np.float64), np.asarray(windows.positions, np.float64)
-    aligned_rot, aligned_pos, _, _ = _alignment(rot[:, start], pos[:, start], rot[:, target], pos[:, target],
+    aligned_rot, aligned_pos, _, _ = align_keyframes(rot[:, start], pos[:, start], rot[:, target], pos[:, target],
                                                 model.parents, model.forward_axis)
     contacts = np.asarray(windows.contacts, np.float64)
     start_kf = {"rotations": aligned_rot[:, 0], "root_position": aligned_pos[:, 0, 0], "contacts": contacts[:, start]}
@@ -104,7 +104,7 @@ def rollout_details(model: Model, start: dict, target: dict, offsets, length: in
     generators' per-step outputs including their Gaussians ("mu", "mu_target", "mu_blend", ...) and
     "stitch_loss" (B, S). Compiled once per (length, B, S).
     """
-    _check_request(model, length, 1, 0, warn=True)
+    check_request(model, length, 1, 0, warn=True)
     noise = jnp.asarray(noise, jnp.float32)
     expected = noise_shape(model, length)
     if noise.ndim != 5 or noise.shape[2:] != expected:

@@ -27,7 +27,7 @@ from stitchjax.data import conform
 from stitchjax import rotations as R
 from stitchjax.data.bvh import Motion
 from stitchjax.sample import length as length_lib
-from stitchjax.sample.inbetween import (_check_request, _check_skeleton, check_length, inbetween, keyframe_contacts,
+from stitchjax.sample.inbetween import (check_request, check_skeleton, check_length, inbetween, keyframe_contacts,
                                        resolve_sampling)
 from stitchjax.sample.sampling import Sampling
 from stitchjax.skeleton import forward_kinematics
@@ -79,7 +79,7 @@ def conform_take(model: Model, motion: Motion, what: str = "the take", scale: fl
                                 "bin/inbetween --scale {factor} (Python: scale={factor})", applied=scale)
     except conform.ConformError as error:
         raise InbetweenError(str(error)) from None
-    _check_skeleton(model, motion.skeleton)
+    check_skeleton(model, motion.skeleton)
     return motion
 
 
@@ -374,7 +374,7 @@ def inbetween_takes(model: Model, start_take: Motion, start_frame: int, target_t
     if length is None:
         length = default_length(model, start_take, start_frame, target_frame, same)
     generated = model_length(model, take_fps, length)
-    _check_request(model, generated, num_samples, sampling.search)
+    check_request(model, generated, num_samples, sampling.search)
     check_length(model, generated, options.allow_extrapolation)
     start_take = conform_take(model, start_take, "the start take", options.scale)
     target_take = start_take if same else conform_take(model, target_take, "the target take", options.scale)

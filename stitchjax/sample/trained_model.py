@@ -243,7 +243,7 @@ def load_model(checkpoint, step: int | None = None) -> Model:
                 except Exception as error:  # orbax / TensorStore: many types for a broken folder
                     raise checkpoints.CheckpointError(
                         f"checkpoint {checkpoints.checkpoint_dir(workdir) / str(step)} cannot be restored "
-                        f"({checkpoints._short(error)}); pass the run folder to use the newest one that "
+                        f"({checkpoints.short_error(error)}); pass the run folder to use the newest one that "
                         f"restores (steps saved: {checkpoints.saved_steps(workdir)})") from None
         finally:
             manager.close()

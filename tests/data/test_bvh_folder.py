@@ -146,7 +146,7 @@ def test_cmu_model_samples_a_transition_from_the_cmu_file_ending_on_the_target(c
         np.testing.assert_allclose(m.rotations[[0, -1]], take.rotations[[40, 68]], rtol=0, atol=1e-12)
     # the start keyframe is faced as the training windows were: the root's local +Z (not LAFAN1's +Y) onto +X
     k = takes.to_model_frame(model, take[40:41])
-    aligned, _, _, _ = inbetween._alignment(k.rotations, k.positions, k.rotations, k.positions, model.parents,
+    aligned, _, _, _ = inbetween.align_keyframes(k.rotations, k.positions, k.rotations, k.positions, model.parents,
                                             model.forward_axis)
     forward = rotations.quat_rotate(aligned[0, 0, 0], np.array(model.forward_axis))
     np.testing.assert_allclose(forward / np.linalg.norm(forward[[0, 2]]) * [1, 0, 1], [1, 0, 0], atol=1e-9)
