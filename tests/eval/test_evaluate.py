@@ -236,17 +236,17 @@ def test_cli_model_baselines_only(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_cli_model_evaluates_a_bvh_folder_model_on_its_test_files(shared_data, tmp_path, capsys):
-    """A 40-step `cmu` model (data.dataset=bvh_folder, every file trains) evaluated on the CMU take with the
+    """A 2-step `cmu` model (data.dataset=bvh_folder, every file trains) evaluated on the CMU take with the
     protocol and the baselines: --dataset comes from the model, the test files from --test-files."""
     from stitchjax import config as config_lib
     from stitchjax.train import loop as train
 
     tiny = ["model.encoder_widths=16,16,16", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
             "model.gating_widths=8,8", "model.disc_widths=16,16", "phase.hidden_dim=16", "phase.steps=20",
-            "train.log_every=10"]
+            "train.log_every=1", "train.batch_size=4"]
     config = config_lib.apply_overrides(config_lib.load_config("cmu"), tiny)
     run = tmp_path / "cmu"
-    train.train(config, run, data_dir=shared_data / "cmu", max_steps=40, config_name="cmu", progress=False)
+    train.train(config, run, data_dir=shared_data / "cmu", max_steps=2, config_name="cmu", progress=False)
     from stitchjax.sample import takes, trained_model
 
     limit, source = takes.root_speed_limit(trained_model.load_model(run))  # saved at training time

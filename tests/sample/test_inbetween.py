@@ -5,10 +5,7 @@ One tiny freshly initialised model saved as an orbax checkpoint serves every tes
 the same (length, candidates, batch) so the whole module compiles the sampler once.
 """
 import dataclasses
-import os
-import pathlib
 import subprocess
-import sys
 
 import jax
 import numpy as np
@@ -21,7 +18,6 @@ from stitchjax.sample import inbetween, latent, takes, trained_model
 from stitchjax.skeleton import Skeleton
 from stitchjax.data.windows import Windows, foot_contacts
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 LENGTH = 8  # every rollout below: 8 generated frames ...
 CANDIDATES = 4  # ... and 4 candidates per keyframe pair (plain 4 samples, or 2 samples x search 2)
 TOL_CM = 1e-4
@@ -205,12 +201,6 @@ def test_bad_requests_raise_clear_errors(model, take):
         inbetween.inbetween(model, dataclasses.replace(take[100], skeleton=other), take[110], 4, 2)
 
 
-def _cli(*args):
-    env = dict(os.environ, PYTHONPATH=str(REPO))
-    return subprocess.run([sys.executable, str(REPO / "bin" / "inbetween"), *map(str, args)],
-                          capture_output=True, text=True, env=env, timeout=300)
-
-
 def _cli_here(capsys, *args):
     """bin/inbetween's main() in this process (no interpreter or jax start-up): (exit status, stderr)."""
     from bin_scripts import load_cli
@@ -222,9 +212,9 @@ def _cli_here(capsys, *args):
     return subprocess.CompletedProcess(args, code, "", capsys.readouterr().err)
 
 
-def test_cli_writes_bvh_and_png(tiny_run, take, tmp_path):
+def test_cli_writes_bvh_and_png(tiny_run, take, tmp_path, capsys):
     source = bundled.sample_files(["subject5"])[0]
-    result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 100 + LENGTH + 1,
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 100 + LENGTH + 1,
                   "--samples", CANDIDATES, "--seed", 5, "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     files = sorted(tmp_path.glob("*.bvh"))
