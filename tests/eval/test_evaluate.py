@@ -224,7 +224,7 @@ def test_cli_reports_a_folder_without_test_subject_in_one_line(tmp_path, capsys)
 def test_cli_model_baselines_only(tmp_path, capsys):
     out = tmp_path / "protocol.json"
     proc = _run_cli_here(capsys, "model", "--baselines-only", "--data", str(sample_dir()), "--samples", "2",
-                    "--lengths", "10,30", "--json", str(out))
+                         "--lengths", "10,30", "--json", str(out))
     assert proc.returncode == 0, proc.stderr
     results = json.loads(out.read_text())
     assert results["samples"] == 2 and list(results["lengths"]) == ["10", "30"]

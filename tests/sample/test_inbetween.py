@@ -214,8 +214,8 @@ def _cli_here(capsys, *args):
 
 def test_cli_writes_bvh_and_png(tiny_run, take, tmp_path, capsys):
     source = bundled.sample_files(["subject5"])[0]
-    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 100 + LENGTH + 1,
-                  "--samples", CANDIDATES, "--seed", 5, "--out", tmp_path)
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100,
+                       "--end-frame", 100 + LENGTH + 1, "--samples", CANDIDATES, "--seed", 5, "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     files = sorted(tmp_path.glob("*.bvh"))
     assert len(files) == CANDIDATES
@@ -235,17 +235,17 @@ def test_cli_writes_bvh_and_png(tiny_run, take, tmp_path, capsys):
 def test_cli_errors_are_one_line(tiny_run, tmp_path, capsys):
     source = bundled.sample_files(["subject5"])[0]
     result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 99999,
-                  "--out", tmp_path)
+                       "--out", tmp_path)
     assert result.returncode == 2
     assert result.stderr.strip().count("\n") == 0 and "out of range" in result.stderr
-    result = _cli_here(capsys, "--checkpoint", tmp_path / "missing", "--bvh", source, "--start-frame", 1, "--end-frame", 9,
-                  "--out", tmp_path)
+    result = _cli_here(capsys, "--checkpoint", tmp_path / "missing", "--bvh", source, "--start-frame", 1,
+                       "--end-frame", 9, "--out", tmp_path)
     assert result.returncode == 2 and "does not exist" in result.stderr
     result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 109,
-                  "--noise-ramp", -1, "--out", tmp_path)
+                       "--noise-ramp", -1, "--out", tmp_path)
     assert result.returncode == 2 and "--noise-ramp -1" in result.stderr
     result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 109,
-                  "--noise-correlation", 2, "--out", tmp_path)
+                       "--noise-correlation", 2, "--out", tmp_path)
     assert result.returncode == 2 and "--noise-correlation 2" in result.stderr
 
 
@@ -313,8 +313,8 @@ def test_evaluate_default_sampling_samples_both_model_rows_as_inbetween_does(mod
 
 def test_cli_foot_lock_flag_keeps_the_keyframes(tiny_run, take, tmp_path, capsys):
     source = bundled.sample_files(["subject5"])[0]
-    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 100 + LENGTH + 1,
-                  "--samples", 1, "--foot-lock", "--gif", "--out", tmp_path)
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100,
+                       "--end-frame", 100 + LENGTH + 1, "--samples", 1, "--foot-lock", "--gif", "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     g, full = _global(bvh.load(next(tmp_path.glob("*.bvh")))), _global(take)
     for frame in (100, 100 + LENGTH + 1):

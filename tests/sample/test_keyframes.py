@@ -213,10 +213,10 @@ def test_cli_refuses_out_on_a_file_long_lengths_and_bad_target_flags(tiny_run, t
 def test_cli_target_from_another_take_with_offset_and_turn(tiny_run, tmp_path, capsys):
     source = bundled.sample_files(["subject5"])[0]
     other = bundled.sample_files(["subject1"])[0]
-    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--target-bvh", other,
-                  "--target-frame", 50, "--length", LENGTH, "--target-offset", "300,0,0", "--target-turn", 90,
-                  "--offset-from", "file", "--allow-fast",
-                  "--samples", SAMPLES, "--output", "transition", "--out", tmp_path)
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--target-bvh",
+                       other, "--target-frame", 50, "--length", LENGTH, "--target-offset", "300,0,0", "--target-turn",
+                       90, "--offset-from", "file", "--allow-fast",
+                       "--samples", SAMPLES, "--output", "transition", "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     files = sorted(tmp_path.glob("*.bvh"))
     assert len(files) == SAMPLES
