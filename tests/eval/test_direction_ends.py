@@ -1,6 +1,9 @@
 """Where each generator ends before stitching (stitchjax.eval.direction_ends), on a tiny random model."""
 import json
+import os
+import pathlib
 import subprocess
+import sys
 
 import jax
 import numpy as np
@@ -15,6 +18,7 @@ from stitchjax.sample import trained_model
 from stitchjax.skeleton import forward_kinematics
 
 LENGTH = 6  # the tiny config trains up to 8 frames
+REPO = pathlib.Path(__file__).resolve().parents[2]
 
 
 def model_of(*overrides):
@@ -104,28 +108,21 @@ def test_a_model_on_another_skeleton_is_refused(windows):
         direction_ends.evaluate_direction_ends(h36m_model, windows, (LENGTH,))
 
 
-def _run_evaluate(capsys, *args):
-    """bin/evaluate's main() in this process (no interpreter or jax start-up): (exit status, stdout, stderr)."""
-    from bin_scripts import load_cli
-
-    try:
-        code = load_cli("evaluate").main(list(args))
-    except SystemExit as exit_:  # argparse's own errors
-        code = exit_.code
-    captured = capsys.readouterr()
-    return subprocess.CompletedProcess(args, code, captured.out, captured.err)
+def _run_evaluate(*args):
+    env = dict(os.environ, PYTHONPATH="")  # the script must find the package by itself
+    return subprocess.run([sys.executable, str(REPO / "bin" / "evaluate"), *args], capture_output=True, text=True,
+                          env=env, cwd=str(REPO.parent), timeout=600)
 
 
-def test_bin_evaluate_adds_the_direction_ends_of_the_model_and_refuses_them_without_one(tiny_run, tmp_path,
-                                                                                          capsys):
+def test_bin_evaluate_adds_the_direction_ends_of_the_model_and_refuses_them_without_one(tiny_run, tmp_path):
     out = tmp_path / "ends.json"
     common = ["model", "--data", str(sample_dir()), "--samples", "2", "--lengths", str(LENGTH), "--noise-scales", ""]
-    proc = _run_evaluate(capsys, *common, "--checkpoint", str(tiny_run), "--direction-ends", "--json", str(out))
+    proc = _run_evaluate(*common, "--checkpoint", str(tiny_run), "--direction-ends", "--json", str(out))
     assert proc.returncode == 0, proc.stderr[-2000:]
     ends = json.loads(out.read_text())["direction_ends"]
     figures = ends["lengths"][str(LENGTH)]["model"]
     assert ends["samples"] == 2 and set(figures) == set(direction_ends.GAP_KEYS)
     assert all(np.isfinite(v) and v > 0 for v in figures.values())
     assert f"L = {LENGTH}: target_step {figures['target_step']:.4f}" in proc.stdout
-    refused = _run_evaluate(capsys, *common, "--baselines-only", "--direction-ends")
+    refused = _run_evaluate(*common, "--baselines-only", "--direction-ends")
     assert refused.returncode == 2 and "--direction-ends" in refused.stderr and "Traceback" not in refused.stderr
