@@ -45,7 +45,7 @@ def _main_here(name, capsys, *args):
 
 
 def _train_here(capsys, workdir, *args):
-    """bin/train in this process: (exit status, stderr)."""
+    """bin/train's argument checks in this process: (exit status, stderr)."""
     return _main_here("train", capsys, "--workdir", workdir, *FAST, *args)
 
 
@@ -142,13 +142,13 @@ def test_inbetween_load_model_falls_back_over_a_broken_checkpoint(tiny_run, tmp_
 
 
 @pytest.mark.slow
-def test_train_cli_exit_codes_resume_message_and_checkpoint_fallback(tmp_path, capsys):
+def test_train_cli_exit_codes_resume_message_and_checkpoint_fallback(tmp_path):
     run = tmp_path / "run"
-    first = _train_here(capsys, run, "--max-steps", 2, "train.checkpoint_every_steps=1")  # in this process
+    first = _train(run, "--max-steps", 2, "train.checkpoint_every_steps=1")
     assert first.returncode == 0, first.stderr[-2000:]
     assert sorted(p.name for p in (run / "checkpoints").iterdir()) == ["1", "2"]
 
-    mismatch = _train_here(capsys, run, "--max-steps", 3, "model.latent_dim=8")  # a different model: exit 2
+    mismatch = _train(run, "--max-steps", 3, "model.latent_dim=8")  # a different model: refused, exit 2
     assert mismatch.returncode == 2
     assert mismatch.stderr.startswith("error:") and "model config differs" in mismatch.stderr
 
