@@ -128,7 +128,7 @@ def test_random_start_training_set_carries_every_start_and_trains(sample_copy, t
 def test_bin_evaluate_split_validation_scores_the_models_validation_takes(sample_copy, tmp_path, capsys):
     import jax
 
-    from stitchjax import checkpoints
+    from stitchjax import checkpoints, specs
     from stitchjax.train import loop as train
 
     cli = load_cli("evaluate")
