@@ -1,9 +1,5 @@
 """The training set with the data.* options: validation split, extra training folders, random starts, mirroring."""
-import os
-import pathlib
 import shutil
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -13,9 +9,6 @@ from stitchjax import config as C
 from stitchjax.skeleton import LAFAN1_JOINTS, LAFAN1_PARENTS, forward_kinematics
 
 from bin_scripts import load_cli
-
-REPO = pathlib.Path(__file__).resolve().parents[2]
-
 
 def tiny(*overrides):
     return C.apply_overrides(C.load_config("tiny"), ["data.window=14", "data.offset=10", *overrides])
@@ -55,14 +48,12 @@ def test_a_validation_take_outside_the_training_files_is_refused(sample_copy, na
         datasets.load_training_data(tiny(f"data.validation_files={name}").data, sample_copy)
 
 
-def test_bin_train_refuses_a_validation_split_overlapping_the_test_files(sample_copy, tmp_path):
-    env = {**os.environ, "PYTHONPATH": str(REPO)}
-    run = subprocess.run([sys.executable, str(REPO / "bin" / "train"), "--config", "tiny", "--workdir",
-                          str(tmp_path / "run"), "--data", str(sample_copy), "--no-progress",
-                          "data.validation_files=obstacles1_subject5"], capture_output=True, text=True, env=env,
-                         timeout=300)
-    assert run.returncode == 2, run.stderr
-    assert "error: data.validation_files: 'obstacles1_subject5' is a test file" in run.stderr
+def test_bin_train_refuses_a_validation_split_overlapping_the_test_files(sample_copy, tmp_path, capsys):
+    code = load_cli("train").main(["--config", "tiny", "--workdir", str(tmp_path / "run"), "--data", str(sample_copy),
+                                   "--no-progress", "data.validation_files=obstacles1_subject5"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "error: data.validation_files: 'obstacles1_subject5' is a test file" in err
 
 
 @pytest.mark.parametrize("name, words", [
@@ -137,7 +128,7 @@ def test_random_start_training_set_carries_every_start_and_trains(sample_copy, t
 def test_bin_evaluate_split_validation_scores_the_models_validation_takes(sample_copy, tmp_path, capsys):
     import jax
 
-    from stitchjax import checkpoints
+    from stitchjax import checkpoints, specs
     from stitchjax.train import loop as train
 
     cli = load_cli("evaluate")

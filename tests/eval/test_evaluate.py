@@ -186,6 +186,18 @@ def _run_cli(*args):
                           text=True, env=env, cwd=str(REPO.parent), timeout=300)
 
 
+def _run_cli_here(capsys, *args):
+    """bin/evaluate's main() in this process (no interpreter or jax start-up): (exit status, stdout, stderr)."""
+    from bin_scripts import load_cli
+
+    try:
+        code = load_cli("evaluate").main(list(args))
+    except SystemExit as exit_:  # argparse's own errors
+        code = exit_.code
+    captured = capsys.readouterr()
+    return subprocess.CompletedProcess(args, code, captured.out, captured.err)
+
+
 def test_cli_baselines_writes_the_schema(tmp_path):
     out = tmp_path / "baselines.json"
     proc = _run_cli("baselines", "--data", str(sample_dir()), "--json", str(out))
@@ -199,20 +211,20 @@ def test_cli_baselines_writes_the_schema(tmp_path):
     assert 0 < value < 1 and f"{value:.4f}" in proc.stdout and "units: " in proc.stdout
 
 
-def test_cli_reports_a_folder_without_test_subject_in_one_line(tmp_path):
+def test_cli_reports_a_folder_without_test_subject_in_one_line(tmp_path, capsys):
     for f in sample_dir().glob("*_subject1.bvh.gz"):
         (tmp_path / f.name).symlink_to(f)
-    proc = _run_cli("baselines", "--data", str(tmp_path))
+    proc = _run_cli_here(capsys, "baselines", "--data", str(tmp_path))
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
     error_lines = [line for line in proc.stderr.splitlines() if "error" in line]
     assert len(error_lines) == 1 and "subject5" in error_lines[0]
 
 
-def test_cli_model_baselines_only(tmp_path):
+def test_cli_model_baselines_only(tmp_path, capsys):
     out = tmp_path / "protocol.json"
-    proc = _run_cli("model", "--baselines-only", "--data", str(sample_dir()), "--samples", "2",
-                    "--lengths", "10,30", "--json", str(out))
+    proc = _run_cli_here(capsys, "model", "--baselines-only", "--data", str(sample_dir()), "--samples", "2",
+                         "--lengths", "10,30", "--json", str(out))
     assert proc.returncode == 0, proc.stderr
     results = json.loads(out.read_text())
     assert results["samples"] == 2 and list(results["lengths"]) == ["10", "30"]
@@ -223,18 +235,18 @@ def test_cli_model_baselines_only(tmp_path):
 
 
 @pytest.mark.slow
-def test_cli_model_evaluates_a_bvh_folder_model_on_its_test_files(shared_data, tmp_path):
-    """A 40-step `cmu` model (data.dataset=bvh_folder, every file trains) evaluated on the CMU take with the
+def test_cli_model_evaluates_a_bvh_folder_model_on_its_test_files(shared_data, tmp_path, capsys):
+    """A 2-step `cmu` model (data.dataset=bvh_folder, every file trains) evaluated on the CMU take with the
     protocol and the baselines: --dataset comes from the model, the test files from --test-files."""
     from stitchjax import config as config_lib
     from stitchjax.train import loop as train
 
     tiny = ["model.encoder_widths=16,16,16", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
             "model.gating_widths=8,8", "model.disc_widths=16,16", "phase.hidden_dim=16", "phase.steps=20",
-            "train.log_every=10"]
+            "train.log_every=1", "train.batch_size=4"]
     config = config_lib.apply_overrides(config_lib.load_config("cmu"), tiny)
     run = tmp_path / "cmu"
-    train.train(config, run, data_dir=shared_data / "cmu", max_steps=40, config_name="cmu", progress=False)
+    train.train(config, run, data_dir=shared_data / "cmu", max_steps=2, config_name="cmu", progress=False)
     from stitchjax.sample import takes, trained_model
 
     limit, source = takes.root_speed_limit(trained_model.load_model(run))  # saved at training time
@@ -242,9 +254,9 @@ def test_cli_model_evaluates_a_bvh_folder_model_on_its_test_files(shared_data, t
     out = tmp_path / "cmu.json"
     args = ["model", "--checkpoint", str(run), "--data", str(shared_data / "cmu"), "--samples", "2",
             "--lengths", "10,30", "--noise-scales", "", "--json", str(out)]
-    refused = _run_cli(*args[:-2])
+    refused = _run_cli_here(capsys, *args[:-2])
     assert refused.returncode == 2 and "--test-files" in refused.stderr  # no data.test_files in the config
-    proc = _run_cli(*args, "--test-files", "01_01.bvh")
+    proc = _run_cli_here(capsys, *args, "--test-files", "01_01.bvh")
     assert proc.returncode == 0, proc.stderr[-2000:]
     results = json.loads(out.read_text())
     assert results["n_windows"] == 16  # 2752 frames at 120 fps = 688 at 30: windows of 65 every 40

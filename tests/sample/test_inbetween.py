@@ -5,10 +5,7 @@ One tiny freshly initialised model saved as an orbax checkpoint serves every tes
 the same (length, candidates, batch) so the whole module compiles the sampler once.
 """
 import dataclasses
-import os
-import pathlib
 import subprocess
-import sys
 
 import jax
 import numpy as np
@@ -21,7 +18,6 @@ from stitchjax.sample import inbetween, latent, takes, trained_model
 from stitchjax.skeleton import Skeleton
 from stitchjax.data.windows import Windows, foot_contacts
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 LENGTH = 8  # every rollout below: 8 generated frames ...
 CANDIDATES = 4  # ... and 4 candidates per keyframe pair (plain 4 samples, or 2 samples x search 2)
 TOL_CM = 1e-4
@@ -204,16 +200,21 @@ def test_bad_requests_raise_clear_errors(model, take):
         inbetween.inbetween(model, dataclasses.replace(take[100], skeleton=other), take[110], 4, 2)
 
 
-def _cli(*args):
-    env = dict(os.environ, PYTHONPATH=str(REPO))
-    return subprocess.run([sys.executable, str(REPO / "bin" / "inbetween"), *map(str, args)],
-                          capture_output=True, text=True, env=env, timeout=300)
+def _cli_here(capsys, *args):
+    """bin/inbetween's main() in this process (no interpreter or jax start-up): (exit status, stderr)."""
+    from bin_scripts import load_cli
+
+    try:
+        code = load_cli("inbetween").main([str(a) for a in args])
+    except SystemExit as exit_:  # argparse's own errors
+        code = exit_.code
+    return subprocess.CompletedProcess(args, code, "", capsys.readouterr().err)
 
 
-def test_cli_writes_bvh_and_png(tiny_run, take, tmp_path):
+def test_cli_writes_bvh_and_png(tiny_run, take, tmp_path, capsys):
     source = bundled.sample_files(["subject5"])[0]
-    result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 100 + LENGTH + 1,
-                  "--samples", CANDIDATES, "--seed", 5, "--out", tmp_path)
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100,
+                       "--end-frame", 100 + LENGTH + 1, "--samples", CANDIDATES, "--seed", 5, "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     files = sorted(tmp_path.glob("*.bvh"))
     assert len(files) == CANDIDATES
@@ -230,20 +231,20 @@ def test_cli_writes_bvh_and_png(tiny_run, take, tmp_path):
     assert png.stat().st_size > 1000 and png.read_bytes()[:4] == b"\x89PNG"
 
 
-def test_cli_errors_are_one_line(tiny_run, tmp_path):
+def test_cli_errors_are_one_line(tiny_run, tmp_path, capsys):
     source = bundled.sample_files(["subject5"])[0]
-    result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 99999,
-                  "--out", tmp_path)
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 99999,
+                       "--out", tmp_path)
     assert result.returncode == 2
     assert result.stderr.strip().count("\n") == 0 and "out of range" in result.stderr
-    result = _cli("--checkpoint", tmp_path / "missing", "--bvh", source, "--start-frame", 1, "--end-frame", 9,
-                  "--out", tmp_path)
+    result = _cli_here(capsys, "--checkpoint", tmp_path / "missing", "--bvh", source, "--start-frame", 1,
+                       "--end-frame", 9, "--out", tmp_path)
     assert result.returncode == 2 and "does not exist" in result.stderr
-    result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 109,
-                  "--noise-ramp", -1, "--out", tmp_path)
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 109,
+                       "--noise-ramp", -1, "--out", tmp_path)
     assert result.returncode == 2 and "--noise-ramp -1" in result.stderr
-    result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 109,
-                  "--noise-correlation", 2, "--out", tmp_path)
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 109,
+                       "--noise-correlation", 2, "--out", tmp_path)
     assert result.returncode == 2 and "--noise-correlation 2" in result.stderr
 
 
@@ -311,10 +312,10 @@ def test_evaluate_default_sampling_samples_both_model_rows_as_inbetween_does(mod
                               chosen) == Sampling(2.5, 0.9, 0, search=2)
 
 
-def test_cli_foot_lock_flag_keeps_the_keyframes(tiny_run, take, tmp_path):
+def test_cli_foot_lock_flag_keeps_the_keyframes(tiny_run, take, tmp_path, capsys):
     source = bundled.sample_files(["subject5"])[0]
-    result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--end-frame", 100 + LENGTH + 1,
-                  "--samples", 1, "--foot-lock", "--gif", "--out", tmp_path)
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100,
+                       "--end-frame", 100 + LENGTH + 1, "--samples", 1, "--foot-lock", "--gif", "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     g, full = _global(bvh.load(next(tmp_path.glob("*.bvh")))), _global(take)
     for frame in (100, 100 + LENGTH + 1):

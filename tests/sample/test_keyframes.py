@@ -4,10 +4,7 @@ another scale, extra joints, transition lengths beyond training, and the CLI's u
 All rollouts use the tiny model's (length 8, 4 candidates), as tests/sample/test_inbetween.py does, so the
 sampler compiles once."""
 import dataclasses
-import os
-import pathlib
 import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -20,7 +17,6 @@ from stitchjax.skeleton import Skeleton
 
 from bin_scripts import load_cli
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 LENGTH, SAMPLES = 8, 4
 
 
@@ -183,12 +179,6 @@ def test_extra_joints_are_mapped_by_name_and_missing_ones_named(model, take):
         takes.inbetween_clip(model, dataclasses.replace(take, skeleton=renamed), 100, 109, num_samples=SAMPLES)
 
 
-def _cli(*args):
-    env = dict(os.environ, PYTHONPATH=str(REPO))
-    return subprocess.run([sys.executable, str(REPO / "bin" / "inbetween"), *map(str, args)],
-                          capture_output=True, text=True, env=env, timeout=300)
-
-
 def _cli_here(capsys, *args):
     """bin/inbetween's main() in this process (no interpreter or jax start-up): (exit status, stderr)."""
     module = load_cli("inbetween")
@@ -220,13 +210,13 @@ def test_cli_refuses_out_on_a_file_long_lengths_and_bad_target_flags(tiny_run, t
     assert result.returncode == 2 and "--target-offset" in result.stderr
 
 
-def test_cli_target_from_another_take_with_offset_and_turn(tiny_run, tmp_path):
+def test_cli_target_from_another_take_with_offset_and_turn(tiny_run, tmp_path, capsys):
     source = bundled.sample_files(["subject5"])[0]
     other = bundled.sample_files(["subject1"])[0]
-    result = _cli("--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--target-bvh", other,
-                  "--target-frame", 50, "--length", LENGTH, "--target-offset", "300,0,0", "--target-turn", 90,
-                  "--offset-from", "file", "--allow-fast",
-                  "--samples", SAMPLES, "--output", "transition", "--out", tmp_path)
+    result = _cli_here(capsys, "--checkpoint", tiny_run, "--bvh", source, "--start-frame", 100, "--target-bvh",
+                       other, "--target-frame", 50, "--length", LENGTH, "--target-offset", "300,0,0", "--target-turn",
+                       90, "--offset-from", "file", "--allow-fast",
+                       "--samples", SAMPLES, "--output", "transition", "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     files = sorted(tmp_path.glob("*.bvh"))
     assert len(files) == SAMPLES

@@ -19,6 +19,8 @@ import pytest
 from stitchjax import checkpoints
 from stitchjax.data import bvh, bundled
 
+from bin_scripts import load_cli
+
 REPO = pathlib.Path(__file__).resolve().parents[2]
 # A fast training run: the tiny model on 12-frame windows of the bundled sample.
 FAST = ["--config", "tiny", "--no-progress", "data.window=12", "data.offset=8"]
@@ -31,6 +33,20 @@ def _env(**extra):
 def _train(workdir, *args, timeout=300, **env):
     return subprocess.run([sys.executable, str(REPO / "bin" / "train"), "--workdir", str(workdir), *FAST,
                            *map(str, args)], capture_output=True, text=True, env=_env(**env), timeout=timeout)
+
+
+def _main_here(name, capsys, *args):
+    """bin/<name>'s main() in this process (no interpreter or jax start-up): (exit status, stderr)."""
+    try:
+        code = load_cli(name).main([str(a) for a in args])
+    except SystemExit as exit_:  # argparse's own errors
+        code = exit_.code
+    return subprocess.CompletedProcess(args, code, "", capsys.readouterr().err)
+
+
+def _train_here(capsys, workdir, *args):
+    """bin/train's argument checks in this process: (exit status, stderr)."""
+    return _main_here("train", capsys, "--workdir", workdir, *FAST, *args)
 
 
 def _truncate_state(step_folder: pathlib.Path) -> None:
@@ -166,31 +182,31 @@ def test_train_cli_exit_codes_resume_message_and_checkpoint_fallback(tmp_path):
     assert saved >= 5
 
 
-def test_train_cli_checks_arguments_before_any_work(tmp_path):
+def test_train_cli_checks_arguments_before_any_work(tmp_path, capsys):
     afile = tmp_path / "file.txt"
     afile.write_text("x")
-    bad = _train(afile, "--max-steps", 1)
+    bad = _train_here(capsys, afile, "--max-steps", 1)
     assert bad.returncode == 2 and "--workdir" in bad.stderr and "is a file" in bad.stderr
-    bad = _train(tmp_path / "run", "--data", tmp_path / "missing")
+    bad = _train_here(capsys, tmp_path / "run", "--data", tmp_path / "missing")
     assert bad.returncode == 2 and "--data" in bad.stderr and "no such folder" in bad.stderr
-    bad = _train(tmp_path / "run", "--max-steps", 0)
+    bad = _train_here(capsys, tmp_path / "run", "--max-steps", 0)
     assert bad.returncode == 2 and "--max-steps 0" in bad.stderr
     assert not (tmp_path / "run").exists()  # nothing started
-    bad = _train(tmp_path / "run", "--max-steps", 1, "model.posterior=none", "loss.free_bits=2")
+    bad = _train_here(capsys, tmp_path / "run", "--max-steps", 1, "model.posterior=none", "loss.free_bits=2")
     assert bad.returncode == 2 and "loss.free_bits changes nothing" in bad.stderr
     assert not (tmp_path / "run").exists()  # refused before any work
-    bad = _train(tmp_path / "run", "--max-steps", 1, "model.noise_correlation=0.5")  # a removed field
+    bad = _train_here(capsys, tmp_path / "run", "--max-steps", 1, "model.noise_correlation=0.5")  # a removed field
     assert bad.returncode == 2 and "model.noise_correlation was removed" in bad.stderr
     assert not (tmp_path / "run").exists()
+    # a fresh process: a bad multi-host setting is one error line before jax starts, not a traceback
     bad = _train(tmp_path / "run", "--max-steps", 1, JAX_COORDINATOR_ADDRESS="127.0.0.1:1", JAX_NUM_PROCESSES="2",
                  JAX_PROCESS_ID="x")
     assert bad.returncode == 2 and "JAX_PROCESS_ID='x'" in bad.stderr and "Traceback" not in bad.stderr
 
 
-def test_evaluate_cli_names_the_flag(tmp_path):
+def test_evaluate_cli_names_the_flag(tmp_path, capsys):
     def evaluate(*args):
-        return subprocess.run([sys.executable, str(REPO / "bin" / "evaluate"), *map(str, args)],
-                              capture_output=True, text=True, env=_env(), timeout=120)
+        return _main_here("evaluate", capsys, *args)
 
     data = str(bundled.sample_dir())
     bad = evaluate("model", "--baselines-only", "--data", data, "--lengths", "10,abc")

@@ -16,6 +16,8 @@ from stitchjax import checkpoints, config as config_lib, parallel, specs
 from stitchjax.data import datasets
 from stitchjax.train import resume, schedule, loop as train
 
+from bin_scripts import load_cli
+
 REPO = pathlib.Path(__file__).resolve().parents[2]
 FRAMES = 10  # tiny windows: transitions of up to 8 frames
 
@@ -261,16 +263,21 @@ def test_data_parallel_step_matches_single_device(dataset, tmp_path):
         np.testing.assert_allclose(out[f"arr_{i}"], leaf, rtol=2e-4, atol=2e-5)
 
 
-def test_cli_help_and_bad_arguments(tmp_path):
+def test_cli_help_and_bad_arguments(tmp_path, capsys):
     cli = [sys.executable, str(REPO / "bin" / "train")]
     help_run = subprocess.run(cli + ["--help"], capture_output=True, text=True, timeout=60)
     assert help_run.returncode == 0 and "--workdir" in help_run.stdout and "--max-steps" in help_run.stdout
-    bad = subprocess.run(cli + ["--config", "no_such_config", "--workdir", str(tmp_path)],
-                         capture_output=True, text=True, timeout=60)
-    assert bad.returncode == 2 and "no config named 'no_such_config'" in bad.stderr
-    bad = subprocess.run(cli + ["--config", "quickstart", "--workdir", str(tmp_path), "model.nope=1"],
-                         capture_output=True, text=True, timeout=60)
-    assert bad.returncode == 2 and "no field 'nope'" in bad.stderr
+    main = load_cli("train").main  # the argument checks in this process: no interpreter or jax start-up
+
+    def bad(*args):
+        with pytest.raises(SystemExit) as exit_:
+            main(["--workdir", str(tmp_path), *args])
+        return exit_.value.code, capsys.readouterr().err
+
+    code, err = bad("--config", "no_such_config")
+    assert code == 2 and "no config named 'no_such_config'" in err
+    code, err = bad("--config", "quickstart", "model.nope=1")
+    assert code == 2 and "no field 'nope'" in err
 
 
 def test_validation_during_training_logs_model_and_interpolation_rows(dataset, tmp_path):
