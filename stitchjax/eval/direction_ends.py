@@ -73,7 +73,7 @@ def _compiled_gaps(spec, length: int, num_samples: int):
     model's frame (``rollout.rollout``'s dicts with a leading B axis, offsets (B, J, 3)); keys as sampling draws
     them (split(key, B), then split(window key, S))."""
     def one(params, phase_params, start, target, offsets, key):
-        result = rollout_lib.rollout(params, phase_params, start, target, offsets, key, spec, length, length)
+        result = rollout_lib.rollout(params, phase_params, (start, target, offsets), key, spec, length, length)
         return end_gaps(result, length, spec)
 
     def window(params, phase_params, start, target, offsets, key):
