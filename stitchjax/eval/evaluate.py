@@ -44,11 +44,10 @@ BENCHMARK_LENGTHS = (5, 15, 30, 45)
 PROTOCOL_LENGTHS = (10, 15, 30, 45, 50)
 CONTEXT_FRAMES = 10  # official benchmark: 10 context frames, the last one (frame 9) is the start keyframe
 START_FRAME = CONTEXT_FRAMES - 1
-METRIC_KEYS = ("apd", "spread", "spread_mid", "ade", "ade_best", "slde", "npss", "foot_slide", "l2p", "l2q",
-               "penetration", "penetration_max", "penetration_share", "toe_clearance", "hover_share",
-               "knee_turn_max", "joint_jump_max")
 CONTACT_KEYS = ("penetration", "penetration_max", "penetration_share", "toe_clearance", "hover_share",
                 "knee_turn_max", "joint_jump_max")  # ground truth has them too
+METRIC_KEYS = ("apd", "spread", "spread_mid", "ade", "ade_best", "slde", "npss", "foot_slide", "l2p",
+               "l2q") + CONTACT_KEYS
 
 
 def metric_units(metres_per_unit: float) -> dict:
