@@ -10,7 +10,7 @@ four data options): the validation split, the 72 extra clips of subjects 1-4, ra
 left/right mirroring. The
 learning rate stays constant (lafan1_cpu's 5e-4: lafan1_cpu does not decay it) and the length schedule is
 lafan1_cpu's (5 -> 50 in steps of 5, one epoch each, then L = 50 as in the paper); only the run is longer:
-16000 steps, sized for about 1.5 h of training loop on 2 CPU cores. Validation every 2000 steps on 64
+10000 steps, about 1.5 h of training loop on the slower of the project's 2-core machines. Validation every 2000 steps on 64
 windows of the validation split at L = 30 and 50.
 
 ABLATIONS lists the paper's ablations, each one field of this config (or of the GPU-width `lafan1`, for
@@ -26,7 +26,7 @@ get_config = variant(
     "data.random_starts=true",
     "data.mirror=true",
     # schedule: lafan1_cpu's constant learning rate and length schedule, for longer
-    "train.max_steps=16000",
+    "train.max_steps=10000",
     "train.checkpoint_every_steps=1000",
     "train.eval_every=2000",
     "train.eval_windows=64",

@@ -208,7 +208,7 @@ def test_every_named_config_keeps_its_values():
         f: getattr(release.data, f) for f in ("extra_train_dirs", "random_starts", "mirror")}
     assert C.extensions_on(base) == ("data.validation_files", "data.extra_train_dirs", "data.random_starts",
                                      "data.mirror")
-    assert (base.train.max_steps, base.train.lr_decay_to, base.train.eval_lengths) == (16000, 1.0, (30, 50))
+    assert (base.train.max_steps, base.train.lr_decay_to, base.train.eval_lengths) == (10000, 1.0, (30, 50))
     h36m_cpu = configs["h36m_cpu"]  # paper_cpu's model, loss and schedule on h36m's data, no validation
     assert h36m_cpu.data == h36m.data and (h36m_cpu.model, h36m_cpu.loss, h36m_cpu.phase) == (
         base.model, base.loss, base.phase)
