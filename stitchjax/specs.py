@@ -22,7 +22,7 @@ import dataclasses
 from typing import Any
 
 from stitchjax.accel import matmul as accel_matmul
-from stitchjax.data import conform, datasets
+from stitchjax.data import conform, datasets, features
 from stitchjax.model import networks
 from stitchjax.model import rollout as rollout_lib
 
@@ -36,8 +36,8 @@ class SkeletonSpec:
     dataset: ``config.data.dataset`` (named in messages); parents: (J,) parent index per joint (-1 root);
     feet: the contact joints in the order of the contact channels, None when the dataset reads them per file;
     up_axis: the loaded windows' up axis ("+y", ...), up_index its coordinate (0, 1, 2) and up_sign +1 / -1;
-    position_scale: data units per loss unit (LAFAN1: cm -> m, 100); velocity_scale: the same for the root
-    velocity (cm / frame).
+    position_scale: data units per loss unit (cm -> m, ``features.POSITION_SCALE``); velocity_scale: the same
+    for the root velocity (cm / frame, ``features.VELOCITY_SCALE``).
     """
 
     dataset: str
@@ -91,14 +91,14 @@ class TrainSpec:
 
 def skeleton_spec(data) -> SkeletonSpec:
     """The :class:`SkeletonSpec` of a config's ``data`` section: feet and up axis from the registry entry of
-    ``data.dataset``, parents and scales from ``data``. ValueError for an unknown dataset name."""
+    ``data.dataset``, parents from ``data``, the scales of ``features``. ValueError for an unknown dataset name."""
     entry = datasets.get(data.dataset)
     up = conform.parse_axis(entry.up_axis)
     up_index = int(abs(up).argmax())
     return SkeletonSpec(dataset=data.dataset, parents=tuple(data.parents),
                         feet=None if entry.feet is None else tuple(entry.feet), up_axis=entry.up_axis,
                         up_index=up_index, up_sign=1 if up[up_index] > 0 else -1,
-                        position_scale=data.position_scale, velocity_scale=data.velocity_scale)
+                        position_scale=features.POSITION_SCALE, velocity_scale=features.VELOCITY_SCALE)
 
 
 def loss_spec(model, loss, num_joints: int) -> LossSpec:

@@ -193,7 +193,7 @@ def _readable_config(workdir, step):
 
 def _phase_init(data: config_lib.DataConfig, phase_config: config_lib.PhaseConfig, key):
     """Fresh phase network parameters for the character state of ``data``."""
-    return phase.init_phase_params(key, features.state_dim(data.num_joints, data.num_contacts), phase_config)
+    return phase.init_phase_params(key, features.state_dim(data.num_joints), phase_config)
 
 
 def _sampling_abstract(spec: networks.ModelSpec, data: config_lib.DataConfig,

@@ -37,7 +37,7 @@ def rollout_of(config, length, seed=0):
     key = jax.random.PRNGKey(seed)
     params = N.init_params(N.model_spec(config), key)
     phase_params = phase_lib.init_phase_params(jax.random.fold_in(key, 1),
-                                               F.state_dim(config.data.num_joints, config.data.num_contacts), config.phase)
+                                               F.state_dim(config.data.num_joints), config.phase)
     start, target, offsets = keyframes(seed)
     result = RO.rollout(params, phase_params, (start, target, offsets), jax.random.PRNGKey(5), spec, length, length)
     return result, spec
@@ -94,7 +94,7 @@ def test_without_phase_modulation_the_decoder_is_an_mlp_and_reads_no_phase():
     config = tiny_config("model.phase_modulation=false")
     spec, params = RO.rollout_spec(config), N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
     start, target, offsets = keyframes(0)
-    state_dim = F.state_dim(config.data.num_joints, config.data.num_contacts)
+    state_dim = F.state_dim(config.data.num_joints)
     motions = [RO.rollout(params, phase_lib.init_phase_params(jax.random.PRNGKey(seed), state_dim, config.phase),
                           (start, target, offsets), jax.random.PRNGKey(5), spec, 6, 6)["global_positions"]
                for seed in (1, 2)]

@@ -36,7 +36,7 @@ def synthetic_batch(seed=0, batch=B, frames=T):
 def phase_params_for(config):
     from stitchjax.data import phase
 
-    return phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config.data.num_joints, config.data.num_contacts),
+    return phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config.data.num_joints),
                                    config.phase)
 
 
