@@ -274,18 +274,12 @@ def _parse_bool(text: str) -> bool:
     raise ValueError(f"{text!r} is not a boolean (use true/false)")
 
 
-def inert_fields(config: Config) -> tuple:
-    """"section.field" of every field that is set away from its default but changes nothing under this
-    config: the :data:`POSTERIOR_ONLY_FIELDS` when ``model.posterior`` is "none"."""
-    if config.model.posterior != "none":
+def inert_fields(posterior: str, extensions: tuple) -> tuple:
+    """The ``extensions`` ("section.field", :func:`extensions_on` of a config) that change nothing with
+    ``model.posterior`` = ``posterior``: the :data:`POSTERIOR_ONLY_FIELDS` among them when it is "none"."""
+    if posterior != "none":
         return ()
-    inert = []
-    for section, field in POSTERIOR_ONLY_FIELDS:
-        sub = getattr(config, section)
-        default = next(f.default for f in dataclasses.fields(sub) if f.name == field)
-        if getattr(sub, field) != default:
-            inert.append(f"{section}.{field}")
-    return tuple(inert)
+    return tuple(name for name in extensions if tuple(name.split(".")) in POSTERIOR_ONLY_FIELDS)
 
 
 def check_overrides_take_effect(inert: tuple, overrides) -> None:
@@ -474,8 +468,8 @@ CHOICES = {
 """The values a string field takes, checked by :func:`apply_overrides` before any work starts."""
 
 POSTERIOR_ONLY_FIELDS = (("loss", "free_bits"), ("loss", "prior_sample_fraction"))
-"""Fields that act only through the posterior q (or on windows drawn from the prior instead of q): inert with
-model.posterior="none" (:func:`inert_fields`)."""
+"""Extensions that act only through the posterior q (or on windows drawn from the prior instead of q): inert
+with model.posterior="none" (:func:`inert_fields`)."""
 
 
 @dataclasses.dataclass(frozen=True)

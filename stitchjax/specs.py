@@ -12,9 +12,9 @@ Below that point functions take the spec they read, not the whole ``Config``:
   (``config.phase``) and how a training batch is cut (window, random starts).
 
 Every spec is a frozen, hashable dataclass, so a jitted function may close over it or take it as a static
-argument. Built by :func:`train_spec` (the one builder that reads the whole ``Config``) from
-:func:`skeleton_spec` and :func:`loss_spec` (each of the config sections it reads); a loaded model builds
-its own (``sample.trained_model``).
+argument. Built by :func:`train_spec` (the one builder here that reads the whole ``Config``) from
+:func:`skeleton_spec`, :func:`loss_spec` and ``networks.model_spec`` (each of the config sections it reads)
+and ``rollout.rollout_spec``; a loaded model builds its own (``sample.trained_model``).
 """
 from __future__ import annotations
 
@@ -114,5 +114,6 @@ def train_spec(config) -> TrainSpec:
     ``accel.matmul``'s layers (the ``model.matmul_dtype`` matmul, the ELU's derivative from its output)."""
     return TrainSpec(rollout=accel_matmul.with_layers(rollout_lib.rollout_spec(config)),
                      loss=loss_spec(config.model, config.loss, config.data.num_joints),
-                     skeleton=skeleton_spec(config.data), model=networks.model_spec(config), train=config.train,
-                     phase=config.phase, window=config.data.window, random_starts=config.data.random_starts)
+                     skeleton=skeleton_spec(config.data), model=networks.model_spec(config.model, config.data),
+                     train=config.train, phase=config.phase, window=config.data.window,
+                     random_starts=config.data.random_starts)

@@ -50,7 +50,7 @@ def make_case(name, extra=()):
     """(config, params, phase_params, data): a tiny model of CASES[name], 3 windows of 14 frames."""
     base, overrides, step = CASES[name]
     config = config_lib.apply_overrides(config_lib.load_config(base), TINY + overrides + list(extra))
-    params = jax.jit(lambda key: networks.init_params(networks.model_spec(config), key))(jax.random.PRNGKey(0))
+    params = jax.jit(lambda key: networks.init_params(networks.model_spec(config.model, config.data), key))(jax.random.PRNGKey(0))
     phase_params = phase.init_phase_params(jax.random.PRNGKey(1),
                                            features.state_dim(config.data.num_joints),
                                            config.phase)

@@ -23,7 +23,8 @@ from stitchjax import rotations as R
 from stitchjax import skeleton as skel
 
 __all__ = [
-    "POSITION_SCALE", "VELOCITY_SCALE", "NUM_CONTACTS", "state_dim", "state_vector", "split_state", "root_velocities", "offset_features",
+    "POSITION_SCALE", "VELOCITY_SCALE", "NUM_CONTACTS",
+    "state_dim", "state_vector", "split_state", "root_velocities", "offset_features",
     "local_positions", "integrate_root", "prepare_dataset", "dataset_states", "phase_training_arrays",
     "reverse_time", "DatasetError",
     "root_speed_percentiles", "RANDOM_START_KEYS", "cut_windows", "random_start_batch",

@@ -305,10 +305,10 @@ class ModelSpec:
     discriminators: DiscriminatorSpec
 
 
-def model_spec(config) -> ModelSpec:
-    """The :class:`ModelSpec` of a Config: built once where training starts or a model is loaded."""
-    return ModelSpec(generator=generator_spec(config.model, config.data),
-                     discriminators=discriminator_spec(config.model, config.data.num_joints))
+def model_spec(model, data) -> ModelSpec:
+    """The :class:`ModelSpec` of a config's ``model`` and ``data`` sections (:func:`generator_spec`,
+    :func:`discriminator_spec`): built once where training starts or a model is loaded."""
+    return ModelSpec(generator=generator_spec(model, data), discriminators=discriminator_spec(model, data.num_joints))
 
 
 def generator_input_dims(spec) -> dict:

@@ -75,7 +75,7 @@ def setup():
     from stitchjax.data import phase
 
     config = C.load_config("tiny")
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     phase_params = phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config.data.num_joints),
                                         config.phase)
     return config, params, phase_params, synthetic_batch()
@@ -324,7 +324,7 @@ def test_with_every_extension_off_the_objective_is_eq9_term_for_term(setup, post
     features = jnp.asarray(np.concatenate([rel, velocity], axis=-1), jnp.float32)
     adv = 0.0
     for which in ("disc_short", "disc_long"):
-        scores = f64(N.make_discriminator(N.model_spec(config).discriminators, which).apply(params[which], features))
+        scores = f64(N.make_discriminator(N.model_spec(config.model, config.data).discriminators, which).apply(params[which], features))
         window = config.model.disc_short_window if which == "disc_short" else config.model.disc_long_window
         valid = (np.arange(scores.shape[1])[None, :] + window <= motion_mask.sum(1, keepdims=True)).astype(np.float64)
         adv += 0.5 * float(np.sum((scores - 1.0) ** 2 * valid) / valid.sum())

@@ -34,7 +34,7 @@ def _generator_loss(params, phase_params, batch, key, config, length):
 @pytest.fixture(scope="module")
 def setup():
     config = tiny_config()
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     return config, params, phase_params_for(config), synthetic_batch()
 
 
@@ -52,7 +52,8 @@ def _changed_in_between(batch, seed=5):
 def test_posterior_params_exist_only_with_a_posterior(setup):
     config, params, _, _ = setup
     assert "posterior" in params["forward"]["params"] and "posterior" in params["backward"]["params"]
-    legacy = N.init_params(N.model_spec(tiny_config("model.posterior=none")), jax.random.PRNGKey(0))
+    legacy_config = tiny_config("model.posterior=none")
+    legacy = N.init_params(N.model_spec(legacy_config.model, legacy_config.data), jax.random.PRNGKey(0))
     assert "posterior" not in legacy["forward"]["params"]
 
 
@@ -260,7 +261,7 @@ def test_noise_ramp_factors():
 
 def test_noise_ramp_puts_the_frames_next_to_the_keyframes_on_the_mean_path():
     config = tiny_config()
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     batch = synthetic_batch()
     length = 10
     start, target, offsets = jax.tree.map(lambda x: x[0], BT.keyframes_from_batch(batch, length))
