@@ -156,7 +156,7 @@ def synthetic_dataset(config, num_windows: int, num_frames: int, seed: int = 0) 
 
     rng = np.random.default_rng(seed)
     parents = tuple(config.data.parents)
-    joints, contacts = len(parents), config.data.num_contacts
+    joints, contacts = len(parents), getattr(config.data, "num_contacts", 4)  # 4: features.NUM_CONTACTS
     t = np.arange(num_frames)[None, :, None, None] / config.data.fps
     freq = rng.uniform(0.5, 2.0, (num_windows, 1, joints, 3))
     phase0 = rng.uniform(0, 2 * np.pi, (num_windows, 1, joints, 3))
@@ -327,8 +327,8 @@ class JaxInfer:
             key = jax.random.PRNGKey(seed)
             model_spec = networks.model_spec(config) if hasattr(networks, "model_spec") else config
             self.params = networks.init_params(model_spec, key)
-            self.phase_params = phase.init_phase_params(key, config.data.num_joints * 4 + 3 + config.data.num_contacts,
-                                                        config.phase)
+            state = config.data.num_joints * 4 + 3 + getattr(config.data, "num_contacts", 4)  # 4: NUM_CONTACTS
+            self.phase_params = phase.init_phase_params(key, state, config.phase)
             self.api = "rollout.rollout (vmapped over samples)"
             one_start = jax.tree.map(lambda x: jnp.asarray(x[0]), start)
             one_target = jax.tree.map(lambda x: jnp.asarray(x[0]), target)

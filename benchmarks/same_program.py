@@ -45,8 +45,9 @@ if "spec" in inspect.signature(train.make_train_step).parameters:  # the train s
     run = specs.train_spec(cfg)
 update = train.make_train_step(run, mesh, 52).update
 B, T, J = 32, 52, 22
+C4 = getattr(cfg.data, "num_contacts", 4)  # checkouts since the contacts became features.NUM_CONTACTS: 4
 shapes = {"rotations": (B, T, J, 4), "root_positions": (B, T, 3), "contacts": (B, T, 4),
-          "offsets": (B, 1, J, 3), "global_positions": (B, T, J, 3), "phase": (B, T, 2 * cfg.data.num_contacts)}
+          "offsets": (B, 1, J, 3), "global_positions": (B, T, J, 3), "phase": (B, T, 2 * C4)}
 batch = {k: jax.ShapeDtypeStruct(s, jnp.float32) for k, s in shapes.items()}
 step = update.lower(train.abstract_train_state(run, mesh), batch, jnp.int32(50)).compile().as_text()
 model = random_model(cfg)

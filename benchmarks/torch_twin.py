@@ -38,6 +38,9 @@ import torch
 from torch import nn
 import torch.nn.functional as Fn
 
+from stitchjax.data.features import NUM_CONTACTS, POSITION_SCALE, VELOCITY_SCALE
+from stitchjax.data.phase import HIDDEN_LAYERS
+
 __all__ = ["Twin", "Generator", "Posterior", "Discriminator", "PhaseNet", "UnsupportedConfig", "check_supported",
            "batch_to_torch", "jax_noise", "generator_noise", "check_equal_loss", "check_equal_gradients",
            "matmul_flops", "num_steps", "schedule", "interpolation_weight", "kl_warmup"]
@@ -115,7 +118,7 @@ class Generator(nn.Module):
         m, d = config.model, config.data
         self.config = config
         joints = d.num_joints
-        state = joints * 4 + 3 + d.num_contacts
+        state = joints * 4 + 3 + NUM_CONTACTS
         offset = joints * 4 + 3 + 1  # the offsets and the time to the target
         widths = list(m.encoder_widths)
         self.state_encoder = mlp([state] + widths)
@@ -126,11 +129,11 @@ class Generator(nn.Module):
         self.target_head = nn.Linear(m.lstm_size, 2 * m.latent_dim)
         self.posterior = (Posterior(m.lstm_size, state, widths[-1], m.latent_dim)
                           if m.posterior == "next_frame" else None)
-        num_out = 3 + joints * 4 + d.num_contacts
+        num_out = 3 + joints * 4 + NUM_CONTACTS
         outs = list(m.decoder_widths) + [num_out]
         ins = [m.latent_dim + 2 * state] + [width + m.latent_dim for width in outs[:-1]]  # z at every layer
         if m.phase_modulation:
-            self.gating = mlp([2 * d.num_contacts] + list(m.gating_widths) + [m.num_experts], activate_last=False)
+            self.gating = mlp([2 * NUM_CONTACTS] + list(m.gating_widths) + [m.num_experts], activate_last=False)
             self.layers = nn.ModuleList(MoELayer(i, o, m.num_experts) for i, o in zip(ins, outs))
         else:
             self.layers = nn.ModuleList(nn.Linear(i, o) for i, o in zip(ins, outs))
@@ -276,7 +279,7 @@ class Twin:
             torch.set_num_threads(threads)
         self.config = config
         m, d, lc = config.model, config.data, config.loss
-        state = d.num_joints * 4 + 3 + d.num_contacts
+        state = d.num_joints * 4 + 3 + NUM_CONTACTS
         # plain dicts (nn.ModuleDict cannot hold a key named "forward"); parameters via ModuleLists
         self.generators = {"forward": Generator(config), "backward": Generator(config)}
         disc_in = (d.num_joints - 1) * 3 + 3
@@ -284,8 +287,8 @@ class Twin:
                                "disc_long": Discriminator(disc_in, m.disc_long_window, m.disc_widths)}
         self.generator_modules = nn.ModuleList(self.generators.values())
         self.discriminator_modules = nn.ModuleList(self.discriminators.values())
-        self.phase_net = PhaseNet(state, (config.phase.hidden_dim,) * config.phase.num_layers,
-                                  2 * d.num_contacts)
+        self.phase_net = PhaseNet(state, (config.phase.hidden_dim,) * HIDDEN_LAYERS,
+                                  2 * NUM_CONTACTS)
         self.phase_net.requires_grad_(False)  # frozen after pretraining
         self.has_phase = True
         self.feet = None
@@ -385,17 +388,17 @@ class Twin:
         state = torch.cat([current["rotations"].flatten(1), current["velocity"], contacts], -1)
         target_state = torch.cat([target["rotations"].flatten(1), target["velocity"], target_contacts], -1)
         offset = torch.cat([(target["rotations"] - current["rotations"]).flatten(1),
-                            (target["root"] - current["root"]) / d.position_scale], -1)
+                            (target["root"] - current["root"]) / POSITION_SCALE], -1)
         offset = torch.cat([offset, time_to_target.reshape(1, 1).expand(batch, 1)], -1)
         if m.phase_modulation and self.has_phase:
             phase = self.phase_net(state.detach())
         else:
-            phase = state.new_zeros(batch, 2 * d.num_contacts)
+            phase = state.new_zeros(batch, 2 * NUM_CONTACTS)
         carry, y, gaussians = gen(carry, state, target_state, offset, gamma, phase, eps, next_state)
         n = d.num_joints * 4
         velocity = y[:, :3]
         frame = {"rotations": quat_normalize(current["rotations"] + y[:, 3:3 + n].reshape(batch, d.num_joints, 4)),
-                 "root": current["root"] + velocity * d.velocity_scale,
+                 "root": current["root"] + velocity * VELOCITY_SCALE,
                  "velocity": velocity,
                  "contacts": torch.sigmoid(y[:, 3 + n:])}
         return carry, frame, gaussians
@@ -514,9 +517,9 @@ class Twin:
 
     def disc_features(self, global_positions, root_positions):
         d = self.config.data
-        rel = (global_positions[:, :, 1:] - global_positions[:, :, :1]) / d.position_scale
+        rel = (global_positions[:, :, 1:] - global_positions[:, :, :1]) / POSITION_SCALE
         vel = torch.cat([torch.zeros_like(root_positions[:, :1]), root_positions[:, 1:] - root_positions[:, :-1]],
-                        1) / d.velocity_scale
+                        1) / VELOCITY_SCALE
         return torch.cat([rel.flatten(2), vel], -1)
 
     def _norm1(self, x, dims):
@@ -532,7 +535,7 @@ class Twin:
         frames = np.clip((length + 1 - i) if backward else i, 0, batch["rotations"].shape[1] - 1)
         root = batch["root_positions"][:, frames]
         return {"rotations": batch["rotations"][:, frames][:, 1:],
-                "velocities": (root[:, 1:] - root[:, :-1]) / self.config.data.velocity_scale,
+                "velocities": (root[:, 1:] - root[:, :-1]) / VELOCITY_SCALE,
                 "contacts": batch["contacts"][:, frames][:, 1:],
                 "global_positions": batch["global_positions"][:, frames][:, 1:]}
 
@@ -549,7 +552,7 @@ class Twin:
 
     def _foot_skate(self, out, batch, length: int):
         feet_positions = out["global_positions"][:, :, self.feet]
-        step = (feet_positions[:, 1:] - feet_positions[:, :-1]) / self.config.data.position_scale
+        step = (feet_positions[:, 1:] - feet_positions[:, :-1]) / POSITION_SCALE
         weighted = step * batch["contacts"][:, 1:length + 2, :, None]
         return self._norm1(weighted, (-2, -1)).mean()
 
@@ -588,7 +591,7 @@ class Twin:
                                                     + (torch.exp(logvar_q) + (mu_q - mu_p) ** 2) / torch.exp(logvar_p)
                                                     - 1.0))
                 kl, penalty = per_frame.mean(), torch.clamp(per_frame, min=lc.free_bits).mean()
-            fk = self._norm1((o["global_positions"] - tg["global_positions"]) / d.position_scale, (-2, -1)).mean()
+            fk = self._norm1((o["global_positions"] - tg["global_positions"]) / POSITION_SCALE, (-2, -1)).mean()
             values = {"state": lc.beta_rotation * rot + lc.beta_velocity * vel + lc.beta_contact * con,
                       "kl": kl, "kl_penalty": penalty, "kl_prior": prior_kl.mean(), "fk": fk,
                       "rotation": rot, "velocity": vel, "contact": con}
@@ -598,7 +601,7 @@ class Twin:
             terms[term] = sum(terms[f"{term}_{n}"] for n in directions) / len(directions)
         if out["overlap"] is not None:
             a, b = out["overlap"]
-            terms["stitch"] = self._norm1((a - b) / d.position_scale, (-2, -1)).mean()
+            terms["stitch"] = self._norm1((a - b) / POSITION_SCALE, (-2, -1)).mean()
         else:
             terms["stitch"] = torch.zeros(())
         fake = self.disc_features(out["global_positions"], out["root_positions"])
@@ -818,7 +821,7 @@ def matmul_flops(config, batch: int, length: int) -> dict:
     losses are not matmuls and not counted.
     """
     m, d = config.model, config.data
-    state = d.num_joints * 4 + 3 + d.num_contacts
+    state = d.num_joints * 4 + 3 + NUM_CONTACTS
     offset = d.num_joints * 4 + 3 + 1
 
     def chain(sizes):
@@ -832,13 +835,13 @@ def matmul_flops(config, batch: int, length: int) -> dict:
     }
     if m.posterior == "next_frame":
         per_step["posterior"] = (m.lstm_size + 2 * state) * enc[-1] + enc[-1] * 2 * m.latent_dim
-    outs = list(m.decoder_widths) + [3 + d.num_joints * 4 + d.num_contacts]
+    outs = list(m.decoder_widths) + [3 + d.num_joints * 4 + NUM_CONTACTS]
     ins = [m.latent_dim + 2 * state] + [w + m.latent_dim for w in outs[:-1]]
     decoder = sum(i * o for i, o in zip(ins, outs))
     if m.phase_modulation:
         per_step["experts"] = m.num_experts * decoder + sum(m.num_experts * o for o in outs)  # + blend
-        per_step["gating"] = chain([2 * d.num_contacts] + list(m.gating_widths) + [m.num_experts])
-        phase_macs = chain([state] + [config.phase.hidden_dim] * config.phase.num_layers + [2 * d.num_contacts])
+        per_step["gating"] = chain([2 * NUM_CONTACTS] + list(m.gating_widths) + [m.num_experts])
+        phase_macs = chain([state] + [config.phase.hidden_dim] * HIDDEN_LAYERS + [2 * NUM_CONTACTS])
     else:
         per_step["decoder"] = decoder
         phase_macs = 0

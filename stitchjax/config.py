@@ -51,11 +51,8 @@ class DataConfig:
     # --- choices the paper leaves open
     dataset: str = "lafan1"  # reason: which loader builds the windows (stitchjax.data.datasets: lafan1, h36m, bvh_folder)
     data_dir: str = ""  # reason: empty = ../shared/data/<dataset> relative to the repo, or set it
-    position_scale: float = 100.0  # reason: cm -> m so FK / stitch / offset inputs are O(1) on LAFAN1
-    velocity_scale: float = 10.0  # reason: root speed in cm/frame / 10 is ~0.5 walking, ~2 sprinting
     parents: tuple = (-1, 0, 1, 2, 3, 0, 5, 6, 7, 0, 9, 10, 11, 12, 11, 14, 15, 16, 11, 18, 19, 20)
     # reason: FK inside the losses needs static parents; LAFAN1's 22 joints (the h36m and cmu configs set theirs)
-    num_contacts: int = 4  # reason: contact channels in the state (LAFAN1 feet: LeftFoot/Toe, RightFoot/Toe)
     # --- dataset "bvh_folder" only (any folder of BVH files; stitchjax/data/bvh_folder.py)
     feet: tuple = ()  # reason: contact joints by name (left foot, left toe, right foot, right toe); () = common names
     up_axis: str = ""  # reason: the files' up axis ("+y", "+z", ...); "" = inferred
@@ -132,9 +129,6 @@ class LossConfig:
     # "height" = the generated foot near the ground (the foot-slide metric's weight); "height_either" = near the
     # ground at either end of the movement, so a foot cannot jump from the air onto the ground for free;
     # "predicted" = the contacts the generator predicts for its own frames (no gradient through the weights)
-    near_keyframe_weight: float = 1.0  # weight of the state and FK terms on each direction's first
-    # near_keyframe_frames generated frames, the ones next to a keyframe (1 = every frame alike)
-    near_keyframe_frames: int = 1  # how many frames near_keyframe_weight weighs, per direction
     foot_velocity_weight: float = 0.0  # > 0 adds losses.foot_velocity_loss: the feet's movement per frame
     # against the ground truth's
     ground_penetration_weight: float = 0.0  # > 0 adds losses.ground_penetration_loss: how far the generated
@@ -165,7 +159,6 @@ class TrainConfig:
     eval_windows: int = 32  # reason: windows validated (of data.validation_files, else the test windows;
     # evenly spaced, the same every time): cheap
     eval_lengths: tuple = (30,)  # reason: the paper's mid length; (30, 50) adds the long one
-    eval_samples: int = 4  # reason: enough for APD and a stable mean ADE on 32 windows
     # --- speed (benchmarks/README.md)
     weight_gradients_after_scan: bool = True  # reason: same gradients, faster (one matmul per kernel after the scan)
     scan_remat: str = "none"  # reason: autodiff's default; what the rollout's scan keeps for the backward pass
@@ -190,7 +183,6 @@ class PhaseConfig:
     none of these settings; the labels' fit is stitchjax.data.phase's named constants)."""
     # --- choices the paper leaves open
     hidden_dim: int = 128  # reason: small MLP from one frame's state to the 8 phase features
-    num_layers: int = 2  # reason: two ELU hidden layers suffice for the phase regression
     steps: int = 5000  # reason: the phase regression converges quickly
     batch_size: int = 512  # reason: frames are cheap
 
@@ -282,18 +274,12 @@ def _parse_bool(text: str) -> bool:
     raise ValueError(f"{text!r} is not a boolean (use true/false)")
 
 
-def inert_fields(config: Config) -> tuple:
-    """"section.field" of every field that is set away from its default but changes nothing under this
-    config: the :data:`POSTERIOR_ONLY_FIELDS` when ``model.posterior`` is "none"."""
-    if config.model.posterior != "none":
+def inert_fields(posterior: str, extensions: tuple) -> tuple:
+    """The ``extensions`` ("section.field", :func:`extensions_on` of a config) that change nothing with
+    ``model.posterior`` = ``posterior``: the :data:`POSTERIOR_ONLY_FIELDS` among them when it is "none"."""
+    if posterior != "none":
         return ()
-    inert = []
-    for section, field in POSTERIOR_ONLY_FIELDS:
-        sub = getattr(config, section)
-        default = next(f.default for f in dataclasses.fields(sub) if f.name == field)
-        if getattr(sub, field) != default:
-            inert.append(f"{section}.{field}")
-    return tuple(inert)
+    return tuple(name for name in extensions if tuple(name.split(".")) in POSTERIOR_ONLY_FIELDS)
 
 
 def check_overrides_take_effect(inert: tuple, overrides) -> None:
@@ -461,7 +447,6 @@ EXTENSIONS = (
     # loss: terms and weightings beyond Eq. 9
     "loss.kl_warmup_steps", "loss.free_bits", "loss.prior_sample_fraction", "loss.foot_skate_weight",
     "loss.foot_skate_contacts", "loss.foot_velocity_weight", "loss.ground_penetration_weight",
-    "loss.near_keyframe_weight", "loss.near_keyframe_frames",
     # train: the paper keeps the learning rate constant and trains at max_length once the schedule reaches it
     "train.lr_decay_to", "train.lr_decay_from_step", "train.lr_decay_until_step", "train.length_after_schedule",
 )
@@ -483,8 +468,8 @@ CHOICES = {
 """The values a string field takes, checked by :func:`apply_overrides` before any work starts."""
 
 POSTERIOR_ONLY_FIELDS = (("loss", "free_bits"), ("loss", "prior_sample_fraction"))
-"""Fields that act only through the posterior q (or on windows drawn from the prior instead of q): inert with
-model.posterior="none" (:func:`inert_fields`)."""
+"""Extensions that act only through the posterior q (or on windows drawn from the prior instead of q): inert
+with model.posterior="none" (:func:`inert_fields`)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -497,6 +482,7 @@ class Retired:
 
 
 _LAST = "656e31b"  # the last commit with the fields removed from the extensions and unused choices
+_LAST_BEFORE_CONSTANTS = "9baff53"  # the last commit with the near-keyframe weight and the settings now constants
 RETIRED_FIELDS = {
     # read nowhere: any saved value is dropped
     ("train", "length_counts_keyframes"): None,
@@ -529,6 +515,15 @@ RETIRED_FIELDS = {
     ("phase", "ridge"): Retired(1.0, _LAST),
     ("phase", "learning_rate"): Retired(1e-3, _LAST),
     ("phase", "include_reversed"): Retired(True, _LAST),
+    # the near-keyframe weight: its last study closed as superseded; the value kept weighs every frame alike
+    ("loss", "near_keyframe_weight"): Retired(1.0, _LAST_BEFORE_CONSTANTS),
+    ("loss", "near_keyframe_frames"): Retired(1, _LAST_BEFORE_CONSTANTS),
+    # settings no config or study set away from the value kept, now named constants where the code reads them
+    ("data", "position_scale"): Retired(100.0, _LAST_BEFORE_CONSTANTS),  # data.features.POSITION_SCALE
+    ("data", "velocity_scale"): Retired(10.0, _LAST_BEFORE_CONSTANTS),  # data.features.VELOCITY_SCALE
+    ("data", "num_contacts"): Retired(4, _LAST_BEFORE_CONSTANTS),  # data.features.NUM_CONTACTS
+    ("train", "eval_samples"): Retired(4, _LAST_BEFORE_CONSTANTS),  # eval.validation.VALIDATION_SAMPLES
+    ("phase", "num_layers"): Retired(2, _LAST_BEFORE_CONSTANTS),  # data.phase.HIDDEN_LAYERS
 }
 """Removed fields, (section, field) -> :class:`Retired` (None: read nowhere, any value dropped). :func:`from_dict`
 drops one that a saved config holds at the value the code now always uses, and refuses any other value."""

@@ -12,9 +12,9 @@ Below that point functions take the spec they read, not the whole ``Config``:
   (``config.phase``) and how a training batch is cut (window, random starts).
 
 Every spec is a frozen, hashable dataclass, so a jitted function may close over it or take it as a static
-argument. Built by :func:`train_spec` (the one builder that reads the whole ``Config``) from
-:func:`skeleton_spec` and :func:`loss_spec` (each of the config sections it reads); a loaded model builds
-its own (``sample.trained_model``).
+argument. Built by :func:`train_spec` (the one builder here that reads the whole ``Config``) from
+:func:`skeleton_spec`, :func:`loss_spec` and ``networks.model_spec`` (each of the config sections it reads)
+and ``rollout.rollout_spec``; a loaded model builds its own (``sample.trained_model``).
 """
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ import dataclasses
 from typing import Any
 
 from stitchjax.accel import matmul as accel_matmul
-from stitchjax.data import conform, datasets
+from stitchjax.data import conform, datasets, features
 from stitchjax.model import networks
 from stitchjax.model import rollout as rollout_lib
 
@@ -36,8 +36,8 @@ class SkeletonSpec:
     dataset: ``config.data.dataset`` (named in messages); parents: (J,) parent index per joint (-1 root);
     feet: the contact joints in the order of the contact channels, None when the dataset reads them per file;
     up_axis: the loaded windows' up axis ("+y", ...), up_index its coordinate (0, 1, 2) and up_sign +1 / -1;
-    position_scale: data units per loss unit (LAFAN1: cm -> m, 100); velocity_scale: the same for the root
-    velocity (cm / frame).
+    position_scale: data units per loss unit (cm -> m, ``features.POSITION_SCALE``); velocity_scale: the same
+    for the root velocity (cm / frame, ``features.VELOCITY_SCALE``).
     """
 
     dataset: str
@@ -91,14 +91,14 @@ class TrainSpec:
 
 def skeleton_spec(data) -> SkeletonSpec:
     """The :class:`SkeletonSpec` of a config's ``data`` section: feet and up axis from the registry entry of
-    ``data.dataset``, parents and scales from ``data``. ValueError for an unknown dataset name."""
+    ``data.dataset``, parents from ``data``, the scales of ``features``. ValueError for an unknown dataset name."""
     entry = datasets.get(data.dataset)
     up = conform.parse_axis(entry.up_axis)
     up_index = int(abs(up).argmax())
     return SkeletonSpec(dataset=data.dataset, parents=tuple(data.parents),
                         feet=None if entry.feet is None else tuple(entry.feet), up_axis=entry.up_axis,
                         up_index=up_index, up_sign=1 if up[up_index] > 0 else -1,
-                        position_scale=data.position_scale, velocity_scale=data.velocity_scale)
+                        position_scale=features.POSITION_SCALE, velocity_scale=features.VELOCITY_SCALE)
 
 
 def loss_spec(model, loss, num_joints: int) -> LossSpec:
@@ -114,5 +114,6 @@ def train_spec(config) -> TrainSpec:
     ``accel.matmul``'s layers (the ``model.matmul_dtype`` matmul, the ELU's derivative from its output)."""
     return TrainSpec(rollout=accel_matmul.with_layers(rollout_lib.rollout_spec(config)),
                      loss=loss_spec(config.model, config.loss, config.data.num_joints),
-                     skeleton=skeleton_spec(config.data), model=networks.model_spec(config), train=config.train,
-                     phase=config.phase, window=config.data.window, random_starts=config.data.random_starts)
+                     skeleton=skeleton_spec(config.data), model=networks.model_spec(config.model, config.data),
+                     train=config.train, phase=config.phase, window=config.data.window,
+                     random_starts=config.data.random_starts)

@@ -40,21 +40,24 @@ def test_bad_overrides_raise_clear_errors(bad, words):
         C.apply_overrides(C.Config(), [bad])
 
 
+def _inert(config):
+    return C.inert_fields(config.model.posterior, C.extensions_on(config))
+
+
 def test_posterior_only_fields_are_named_inert_and_refused_as_overrides_with_posterior_none():
     cpu = C.apply_overrides(C.load_config("lafan1_cpu"), ["loss.free_bits=1", "loss.prior_sample_fraction=0.5"])
-    assert C.inert_fields(cpu) == ()  # with a posterior every field acts
+    assert _inert(cpu) == ()  # with a posterior every field acts
     none = C.apply_overrides(cpu, ["model.posterior=none"])
-    assert set(C.inert_fields(none)) == {"loss.free_bits", "loss.prior_sample_fraction"}  # the config's own values
+    assert set(_inert(none)) == {"loss.free_bits", "loss.prior_sample_fraction"}  # the config's own values
     overrides = ["model.posterior=none", "loss.prior_sample_fraction=0.25", "loss.free_bits=2"]
     with pytest.raises(C.ConfigError, match="loss.prior_sample_fraction, loss.free_bits change nothing"):
-        C.check_overrides_take_effect(C.inert_fields(C.apply_overrides(cpu, overrides)), overrides)
+        C.check_overrides_take_effect(_inert(C.apply_overrides(cpu, overrides)), overrides)
     with_posterior = C.apply_overrides(cpu, overrides[1:])
-    C.check_overrides_take_effect(C.inert_fields(with_posterior), overrides[1:])  # with the posterior: fine
+    C.check_overrides_take_effect(_inert(with_posterior), overrides[1:])  # with the posterior: fine
     # the same fields at their defaults, or fields that act on "none" too (the KL warm-up), are not refused
     fine = ["model.posterior=none", "loss.free_bits=0", "loss.kl_warmup_steps=100"]
-    C.check_overrides_take_effect(C.inert_fields(C.apply_overrides(cpu, fine)), fine)
-    assert set(C.POSTERIOR_ONLY_FIELDS) <= {(s, f.name) for s in ("model", "loss")
-                                            for f in dataclasses.fields(getattr(C.Config(), s))}
+    C.check_overrides_take_effect(_inert(C.apply_overrides(cpu, fine)), fine)
+    assert {".".join(name) for name in C.POSTERIOR_ONLY_FIELDS} <= set(C.EXTENSIONS)  # what extensions_on names
 
 
 def test_dict_and_json_round_trip(tmp_path):
@@ -131,6 +134,8 @@ def test_a_removed_field_loads_at_the_value_kept_and_is_refused_at_any_other_nam
     retired = {(s, f) for s, fields in shipped.items() if isinstance(fields, dict) for f in fields
                if (s, f) in C.RETIRED_FIELDS}
     assert ("model", "noise_correlation") in retired and ("phase", "include_reversed") in retired
+    assert {("loss", "near_keyframe_weight"), ("data", "position_scale"), ("data", "num_contacts"),
+            ("train", "eval_samples"), ("phase", "num_layers")} <= retired
     config = C.from_dict(shipped)
     assert config.name == "lafan1_cpu_release" and config.loss.foot_skate_weight == 128.0
     for section, field in sorted(C.RETIRED_FIELDS):
@@ -188,7 +193,7 @@ def test_every_named_config_keeps_its_values():
     assert _differences(h36m, paper) == {"data.dataset", "data.train_subjects", "data.fps", "data.parents"}
     assert (h36m.data.num_joints, h36m.data.fps, h36m.data.window, h36m.data.offset) == (21, 25.0, 52, 20)
     tiny = configs["tiny"]
-    assert (tiny.model.lstm_size, tiny.model.latent_dim, tiny.train.max_length, tiny.phase.num_layers) == (16, 4, 8, 1)
+    assert (tiny.model.lstm_size, tiny.model.latent_dim, tiny.train.max_length, tiny.phase.hidden_dim) == (16, 4, 8, 16)
     cpu = configs["lafan1_cpu"]
     assert _differences(cpu, paper) == {
         "data.validation_files", "model.encoder_widths", "model.lstm_size", "model.decoder_widths",

@@ -66,15 +66,15 @@ def test_specs_are_hashable_and_hold_only_what_their_readers_read():
     assert rollout.rollout_spec(bigger_batch) == rollout.rollout_spec(config)
     assert rollout.rollout_spec(C.apply_overrides(config, ["model.stitch_buffer=3"])) != rollout.rollout_spec(config)
     # the training step's generator runs on accel's layers (stitchjax.accel.matmul)
-    assert spec.rollout.generator == dataclasses.replace(networks.model_spec(config).generator, layers=accel_matmul.LAYERS)
-    assert spec.loss.discriminators == networks.model_spec(config).discriminators
+    assert spec.rollout.generator == dataclasses.replace(networks.model_spec(config.model, config.data).generator, layers=accel_matmul.LAYERS)
+    assert spec.loss.discriminators == networks.model_spec(config.model, config.data).discriminators
     assert (spec.loss.discriminators.short_window, spec.loss.discriminators.long_window) == (
         config.model.disc_short_window, config.model.disc_long_window)
 
 
 def test_init_params_of_a_model_spec_has_the_checkpoint_layout():
     config = C.load_config("tiny")
-    params = jax.eval_shape(lambda k: networks.init_params(networks.model_spec(config), k), jax.random.PRNGKey(0))
+    params = jax.eval_shape(lambda k: networks.init_params(networks.model_spec(config.model, config.data), k), jax.random.PRNGKey(0))
     assert set(params) == {"forward", "backward", "disc_short", "disc_long"}
     kernel = params["disc_long"]["params"]["temporal_conv"]["kernel"]
     assert kernel.shape[:2] == (config.model.disc_long_window, networks.disc_feature_dim(config.data.num_joints))

@@ -50,9 +50,9 @@ def make_case(name, extra=()):
     """(config, params, phase_params, data): a tiny model of CASES[name], 3 windows of 14 frames."""
     base, overrides, step = CASES[name]
     config = config_lib.apply_overrides(config_lib.load_config(base), TINY + overrides + list(extra))
-    params = jax.jit(lambda key: networks.init_params(networks.model_spec(config), key))(jax.random.PRNGKey(0))
+    params = jax.jit(lambda key: networks.init_params(networks.model_spec(config.model, config.data), key))(jax.random.PRNGKey(0))
     phase_params = phase.init_phase_params(jax.random.PRNGKey(1),
-                                           features.state_dim(config.data.num_joints, config.data.num_contacts),
+                                           features.state_dim(config.data.num_joints),
                                            config.phase)
     data = run_all.synthetic_dataset(config, 3, 14)
     return config, params, phase_params, data
@@ -119,11 +119,11 @@ def test_twin_next_frame_states_match_stitchjax(tiny):
     n = torch_twin.num_steps(config, 12)
     for length in (12, 7, 1):
         expected = batch_lib.next_frame_states({k: jnp.asarray(v) for k, v in data.items()}, length, n,
-                                               config.data.velocity_scale)
+                                               features.VELOCITY_SCALE)
         got = twin.next_frame_states(batch, length)
         steps = max(torch_twin.schedule(config, length)[2:])
         for name in ("forward", "backward"):
-            assert got[name].shape == (3, steps, features.state_dim(config.data.num_joints, config.data.num_contacts))
+            assert got[name].shape == (3, steps, features.state_dim(config.data.num_joints))
             np.testing.assert_allclose(got[name].numpy(), np.asarray(expected[name])[:, :steps], rtol=1e-6,
                                        atol=1e-6, err_msg=f"{name}, L={length}")
 

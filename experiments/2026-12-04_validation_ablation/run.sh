@@ -32,7 +32,7 @@ declare -A ROWS=(
   # the recipe itself from a second seed: how far seed noise moves the row every other row is compared with
   [recipe_seed1]="--config lafan1_cpu_release train.seed=1"
   # the state and FK terms weighted 4x on each direction's first generated frame (the backward one is the frame
-  # SLDE scores), from both seeds
+  # SLDE scores), from both seeds; loss.near_keyframe_weight left Config after commit 9baff53: run these two there
   [recipe_near_keyframe4]="--config lafan1_cpu_release loss.near_keyframe_weight=4"
   [recipe_near_keyframe4_seed1]="--config lafan1_cpu_release loss.near_keyframe_weight=4 train.seed=1"
   # the width: the recipe at half the CPU widths, and at the widths of the GPU config lafan1 (the paper does not

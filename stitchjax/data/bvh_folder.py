@@ -32,6 +32,7 @@ import re
 import numpy as np
 
 from stitchjax.data import bvh, cache, conform
+from stitchjax.data.features import NUM_CONTACTS
 from stitchjax import rotations as R
 from stitchjax.skeleton import Skeleton, forward_kinematics
 from stitchjax.data.windows import FACING_FRAME, Stats, Windows, clip_windows, concatenate_clips, window_statistics
@@ -154,13 +155,13 @@ def resolve(motion, data) -> Resolved:
     """The feet, up axis, root forward axis and units of a take, from ``data`` or inferred from names."""
     names = motion.skeleton.names
     if data.feet:
-        if len(data.feet) != data.num_contacts:
-            raise BVHFolderError(f"data.feet={tuple(data.feet)} names {len(data.feet)} joints but "
-                                 f"data.num_contacts={data.num_contacts}")
+        if len(data.feet) != NUM_CONTACTS:
+            raise BVHFolderError(f"data.feet={tuple(data.feet)} names {len(data.feet)} joints; name "
+                                 f"{NUM_CONTACTS}: the left foot, left toe, right foot and right toe")
         feet = tuple(_index(names, n, "data.feet") for n in data.feet)
     else:
         found = [_find(names, side, parts) for side in ("left", "right") for parts in (_FOOT, _TOE)]
-        if None in found or data.num_contacts != 4:
+        if None in found:
             raise BVHFolderError(
                 f"cannot tell the foot joints from the names ({', '.join(names)}): set data.feet to the left "
                 f"foot, left toe, right foot and right toe joint names, e.g. data.feet=LeftFoot,LeftToe,RightFoot,"
@@ -273,10 +274,9 @@ def _build(files, data, window: int, offset: int) -> dict:
 
 
 def _params(data, window, offset, split) -> dict:
-    keys = ("feet", "up_axis", "forward_axis", "train_files", "test_files", "train_subjects", "fps", "unit_scale",
-            "num_contacts")
+    keys = ("feet", "up_axis", "forward_axis", "train_files", "test_files", "train_subjects", "fps", "unit_scale")
     return {"window": int(window), "offset": int(offset), "split": split, "frame": FACING_FRAME,
-            **{k: getattr(data, k) for k in keys}}
+            **{k: getattr(data, k) for k in keys}, "num_contacts": NUM_CONTACTS}
 
 
 def load_windows(data_dir, data, split: str = "train", window: int | None = None, offset: int | None = None,

@@ -4,11 +4,11 @@ Character state of one frame (size S = J*4 + 3 + C; LAFAN1: 22*4 + 3 + 4 = 95)::
 
     [ local quaternions (J*4, w x y z per joint) | root velocity (3) | foot contacts (C) ]
 
-Root velocity of frame t is ``(p_t - p_{t-1}) / data.velocity_scale`` with p the root position in file
-units (LAFAN1: cm, so scaled units are 10 cm/frame = 3 m/s: ~0.5 walking, ~2 sprinting). The velocity of
-the first frame of a sequence (and of both keyframes in the rollout, which only sees two poses) is 0.
-Offset features (the offset encoder's input, size J*4 + 3): target minus current local quaternions and
-target minus current global root position divided by ``data.position_scale`` (cm -> m).
+Root velocity of frame t is ``(p_t - p_{t-1}) /`` :data:`VELOCITY_SCALE` with p the root position in
+centimetres (every dataset loads in cm: scaled units are 10 cm/frame = 3 m/s at 30 fps: ~0.5 walking, ~2
+sprinting). The velocity of the first frame of a sequence (and of both keyframes in the rollout, which only
+sees two poses) is 0. Offset features (the offset encoder's input, size J*4 + 3): target minus current local
+quaternions and target minus current global root position divided by :data:`POSITION_SCALE` (cm -> m).
 
 Everything here works on numpy (data pipeline) and jax.numpy (model) arrays alike.
 """
@@ -23,6 +23,7 @@ from stitchjax import rotations as R
 from stitchjax import skeleton as skel
 
 __all__ = [
+    "POSITION_SCALE", "VELOCITY_SCALE", "NUM_CONTACTS",
     "state_dim", "state_vector", "split_state", "root_velocities", "offset_features",
     "local_positions", "integrate_root", "prepare_dataset", "dataset_states", "phase_training_arrays",
     "reverse_time", "DatasetError",
@@ -30,11 +31,16 @@ __all__ = [
 ]
 
 
+POSITION_SCALE = 100.0  # centimetres per model unit: positions enter the losses and offsets in metres, O(1)
+VELOCITY_SCALE = 10.0  # cm/frame per state unit of root velocity: ~0.5 walking, ~2 sprinting
+NUM_CONTACTS = 4  # contact channels of the state: left foot, left toe, right foot, right toe
+
+
 class DatasetError(ValueError):
     """Windows / stats / config do not fit together; the message says what to change."""
 
 
-def state_dim(num_joints: int, num_contacts: int = 4) -> int:
+def state_dim(num_joints: int, num_contacts: int = NUM_CONTACTS) -> int:
     """S = J*4 + 3 + C of J joints and C contact channels."""
     return int(num_joints) * 4 + 3 + int(num_contacts)
 
@@ -97,9 +103,8 @@ def prepare_dataset(windows, stats, data, phase_labels=None) -> dict:
       "phase" (N, T, 2C) phase labels (``phase.phase_labels`` per window unless given);
       "offsets" (N, 1, J, 3) bone offsets of each window (time axis of 1 so ``x[idx, :window]`` slicing
       of every array keeps working).
-    data: the config's ``data`` section (parents, num_contacts). stats: the training statistics (unused beyond
-    validation; positions are scaled by ``data.position_scale``, kept fixed so checkpoints do not depend on the
-    data subset).
+    data: the config's ``data`` section (parents). stats: the training statistics (unused beyond validation;
+    positions are scaled by :data:`POSITION_SCALE`, fixed so checkpoints do not depend on the data subset).
     """
     parents = tuple(data.parents)
     if tuple(windows.skeleton.parents) != parents:
@@ -107,9 +112,9 @@ def prepare_dataset(windows, stats, data, phase_labels=None) -> dict:
             f"windows have a {windows.skeleton.num_joints}-joint skeleton whose parents differ from "
             f"config.data.parents ({len(parents)} joints); set data.parents to {tuple(windows.skeleton.parents)}")
     contacts = np.asarray(windows.contacts, np.float32)
-    if contacts.shape[-1] != data.num_contacts:
-        raise DatasetError(f"windows have {contacts.shape[-1]} contact channels, config.data.num_contacts="
-                           f"{data.num_contacts}")
+    if contacts.shape[-1] != NUM_CONTACTS:
+        raise DatasetError(f"windows have {contacts.shape[-1]} contact channels; the state has {NUM_CONTACTS} "
+                           "(left foot, left toe, right foot, right toe)")
     rotations = np.asarray(windows.rotations, np.float64)
     positions = np.asarray(windows.positions, np.float64)
     _, global_positions = skel.forward_kinematics(rotations, positions, parents)
@@ -131,7 +136,7 @@ def prepare_dataset(windows, stats, data, phase_labels=None) -> dict:
 
 def dataset_states(dataset: dict, velocity_scale: float):
     """Character states of every frame of a prepared dataset, (N, T, S) (phase pretraining input);
-    velocity_scale: ``data.velocity_scale`` (cm / frame per state unit).
+    velocity_scale: cm / frame per state unit (:data:`VELOCITY_SCALE`).
 
     Frame 0 of each window gets the velocity of frame 1 (the window has no previous frame).
     """
@@ -145,7 +150,7 @@ def phase_training_arrays(dataset: dict, velocity_scale: float, fps: float) -> t
     """(states (N, S), labels (N, 2C)) of every frame of a prepared dataset's windows and of the same windows
     played backwards (:func:`reverse_time`: the backward generator feeds the phase network time-reversed
     states, labelled from the reversed contacts), the phase network's pretraining set
-    (``phase.pretrain_phase``); velocity_scale, fps: ``data.velocity_scale`` and ``data.fps``."""
+    (``phase.pretrain_phase``); velocity_scale, fps: :data:`VELOCITY_SCALE` and ``data.fps``."""
     states = np.asarray(dataset_states(dataset, velocity_scale))
     states = states.reshape(-1, states.shape[-1])
     labels = np.asarray(dataset["phase"]).reshape(states.shape[0], -1)

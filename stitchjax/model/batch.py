@@ -108,7 +108,7 @@ def keyframes_from_batch(batch: dict, length):
 def direction_frames(batch: dict, length, num_steps: int, backward: bool, velocity_scale: float) -> dict:
     """Ground truth of one direction's per-step frames (entry i = forward frame i + 1, or backward frame
     L - i), in that direction's time: "rotations" (B, n, J, 4), "velocities" (B, n, 3) scaled by
-    ``velocity_scale`` (``data.velocity_scale``; reversed time for the backward direction), "contacts"
+    ``velocity_scale`` (``features.VELOCITY_SCALE``; reversed time for the backward direction), "contacts"
     (B, n, C), "global_positions" (B, n, J, 3)."""
     length = jnp.asarray(length, jnp.int32)
     made = jnp.arange(1, num_steps + 1, dtype=jnp.int32)  # direction time of the frame each step makes
@@ -127,7 +127,7 @@ def direction_frames(batch: dict, length, num_steps: int, backward: bool, veloci
 
 def next_frame_states(batch: dict, length, num_steps: int, velocity_scale: float) -> dict:
     """Posterior inputs {"forward", "backward"}: (B, n, S) ground-truth state of the frame each step makes
-    (:func:`direction_frames`; ``velocity_scale``: ``data.velocity_scale``)."""
+    (:func:`direction_frames`; ``velocity_scale``: ``features.VELOCITY_SCALE``)."""
     out = {}
     for name in ("forward", "backward"):
         d = direction_frames(batch, length, num_steps, name == "backward", velocity_scale)

@@ -6,8 +6,8 @@ Optional, not in the paper: :func:`foot_skate_loss` (``loss.foot_skate_weight``)
 
 Norms: ||.||_1 as written, the sum over the components of a frame, then the mean over valid frames and the
 batch (the stitching loss may also average over components: ``reduction="mean"``, the sampler's per-motion
-score). Positions enter FK, stitching and discriminator features divided by ``data.position_scale`` (LAFAN1:
-metres; ``SkeletonSpec.position_scale``).
+score). Positions enter FK, stitching and discriminator features divided by ``features.POSITION_SCALE``
+(centimetres -> metres; ``SkeletonSpec.position_scale``).
 """
 from __future__ import annotations
 

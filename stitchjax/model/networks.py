@@ -73,8 +73,8 @@ def sample_latent(mu, logvar, eps):
 class GeneratorSpec:
     """The generator's sizes and switches, resolved once from a Config (:func:`generator_spec`).
 
-    num_joints J, num_contacts C: the state's sizes (S = J*4 + 3 + C); latent_dim, lstm_size,
-    encoder_widths, decoder_widths, gating_widths, num_experts: layer sizes; matmul_dtype;
+    num_joints J, num_contacts C (``features.NUM_CONTACTS``): the state's sizes (S = J*4 + 3 + C); latent_dim,
+    lstm_size, encoder_widths, decoder_widths, gating_widths, num_experts: layer sizes; matmul_dtype;
     switches of ``config.model``: latent_interpolation (Eq. 1), posterior, phase_modulation, lstm (False: the
     concatenated embeddings are ``h``, no recurrence; the carry passes through unchanged).
     layers: the generator's (dense, lstm_cell, moe_dense) layer classes (:class:`Generator`; () = the plain
@@ -98,10 +98,9 @@ class GeneratorSpec:
 
 
 def generator_spec(model, data) -> GeneratorSpec:
-    """The :class:`GeneratorSpec` of a config's ``model`` section and the joint / contact counts of its ``data``
-    section."""
+    """The :class:`GeneratorSpec` of a config's ``model`` section and the joint count of its ``data`` section."""
     return GeneratorSpec(
-        num_joints=data.num_joints, num_contacts=data.num_contacts, latent_dim=model.latent_dim,
+        num_joints=data.num_joints, num_contacts=features.NUM_CONTACTS, latent_dim=model.latent_dim,
         lstm_size=model.lstm_size, encoder_widths=tuple(model.encoder_widths),
         decoder_widths=tuple(model.decoder_widths), gating_widths=tuple(model.gating_widths),
         num_experts=model.num_experts, matmul_dtype=model.matmul_dtype,
@@ -306,10 +305,10 @@ class ModelSpec:
     discriminators: DiscriminatorSpec
 
 
-def model_spec(config) -> ModelSpec:
-    """The :class:`ModelSpec` of a Config: built once where training starts or a model is loaded."""
-    return ModelSpec(generator=generator_spec(config.model, config.data),
-                     discriminators=discriminator_spec(config.model, config.data.num_joints))
+def model_spec(model, data) -> ModelSpec:
+    """The :class:`ModelSpec` of a config's ``model`` and ``data`` sections (:func:`generator_spec`,
+    :func:`discriminator_spec`): built once where training starts or a model is loaded."""
+    return ModelSpec(generator=generator_spec(model, data), discriminators=discriminator_spec(model, data.num_joints))
 
 
 def generator_input_dims(spec) -> dict:

@@ -6,7 +6,7 @@
 Every mechanism beyond Eq. 9 is off by default and named in ``config.EXTENSIONS`` (``config.extensions_on``
 says which a config turns on). Optional, not in the paper: ``loss.foot_skate_weight`` x ``losses.foot_skate_loss``,
 ``loss.foot_velocity_weight`` x ``losses.foot_velocity_loss`` and ``loss.ground_penetration_weight`` x
-``losses.ground_penetration_loss``; ``loss.near_keyframe_weight`` on the frames next to the keyframes.
+``losses.ground_penetration_loss``.
 
 L_kl: with ``model.posterior="next_frame"`` KL(q || p) of the posterior against the latent-interpolation
 prior (``loss.free_bits``, warm-up ``loss.kl_warmup_steps``); with "none" the paper's KL(p || N(0, I)).
@@ -36,7 +36,7 @@ from stitchjax.model.losses import (disc_features, fk_loss, foot_height_contacts
 
 __all__ = [
     "generator_loss", "generator_rollouts", "generator_objective", "discriminator_loss", "direction_targets",
-    "kl_warmup", "near_keyframe_weights", "adversarial_generator_terms",
+    "kl_warmup", "adversarial_generator_terms",
 ]
 
 
@@ -147,21 +147,16 @@ def discriminator_loss(params, phase_params, batch, key, spec, length, generated
 
 def _direction_terms(out_dir, target, loss_config, skeleton, posterior: str):
     """Per-direction terms: "state" and its parts, "fk", "kl" (the KL that is reported), "kl_penalty" (what
-    the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I)), reported). The frames next to
-    the keyframe are weighted by :func:`near_keyframe_weights` in the state and FK terms."""
+    the objective weights: with free bits) and "kl_prior" (KL(p || N(0, I)), reported)."""
     lc = loss_config
     mask = out_dir["mask"]
-    recon_mask = mask
-    if lc.near_keyframe_weight != 1.0:
-        recon_mask = recon_mask * near_keyframe_weights(mask.shape[-1], lc.near_keyframe_weight,
-                                                        lc.near_keyframe_frames)
-    state, parts = state_loss(out_dir, target, recon_mask, lc)
+    state, parts = state_loss(out_dir, target, mask, lc)
     prior_kl = kl_loss(out_dir["mu_blend"], out_dir["logvar_blend"], mask)
     if posterior == "none":
         kl = penalty = prior_kl  # the paper's term: the sampling distribution against N(0, I)
     else:
         kl, penalty = posterior_kl_loss(out_dir, mask, lc.free_bits)
-    fk = fk_loss(out_dir["global_positions"], target["global_positions"], recon_mask, skeleton.position_scale)
+    fk = fk_loss(out_dir["global_positions"], target["global_positions"], mask, skeleton.position_scale)
     return {"state": state, "kl": kl, "kl_penalty": penalty, "kl_prior": prior_kl, "fk": fk, **parts}
 
 
@@ -176,17 +171,6 @@ def kl_warmup(step, warmup_steps: int):
     if warmup_steps <= 0:
         return jnp.ones((), jnp.float32)
     return jnp.clip(jnp.asarray(step, jnp.float32) / float(warmup_steps), 0.0, 1.0)
-
-
-def near_keyframe_weights(num_steps: int, weight: float, frames: int):
-    """(n,) weight of each step of one direction in the reconstruction terms: ``weight``
-    (``loss.near_keyframe_weight``) on the first ``frames`` generated frames, the ones next to the keyframe
-    the direction starts from (the backward direction's first is the transition's last frame, which SLDE
-    scores), 1 on the others. The terms stay weighted means over frames."""
-    if weight < 0 or frames < 1:  # frames 0 would make the weight do nothing
-        raise ValueError(f"loss.near_keyframe_weight must be >= 0 and loss.near_keyframe_frames >= 1, got "
-                         f"{weight}, {frames}")
-    return jnp.where(jnp.arange(num_steps) < frames, jnp.float32(weight), jnp.float32(1.0))
 
 
 def adversarial_generator_terms(params, out, spec, skeleton) -> dict:

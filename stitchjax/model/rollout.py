@@ -66,7 +66,8 @@ class RolloutSpec:
 
     generator: the generators' sizes and switches (``networks.GeneratorSpec``). From ``config.model``:
     bidirectional, bidirectional_aligning (Eq. 2 ablations), stitch_buffer K, contact_input_gradient,
-    update_anchor. From ``config.data``: parents, position_scale, velocity_scale, fps.
+    update_anchor. From ``config.data``: parents, fps; position_scale, velocity_scale: ``features.POSITION_SCALE``,
+    ``features.VELOCITY_SCALE``.
     prior_sample_fraction: ``loss.prior_sample_fraction``.
     """
 
@@ -90,7 +91,7 @@ def rollout_spec(config) -> RolloutSpec:
         generator=networks.generator_spec(m, data), bidirectional=m.bidirectional,
         bidirectional_aligning=m.bidirectional_aligning, stitch_buffer=m.stitch_buffer,
         contact_input_gradient=m.contact_input_gradient, parents=tuple(data.parents),
-        position_scale=data.position_scale, velocity_scale=data.velocity_scale, fps=data.fps,
+        position_scale=F.POSITION_SCALE, velocity_scale=F.VELOCITY_SCALE, fps=data.fps,
         prior_sample_fraction=config.loss.prior_sample_fraction, update_anchor=m.update_anchor)
 
 

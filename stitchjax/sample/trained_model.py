@@ -193,7 +193,7 @@ def _readable_config(workdir, step):
 
 def _phase_init(data: config_lib.DataConfig, phase_config: config_lib.PhaseConfig, key):
     """Fresh phase network parameters for the character state of ``data``."""
-    return phase.init_phase_params(key, features.state_dim(data.num_joints, data.num_contacts), phase_config)
+    return phase.init_phase_params(key, features.state_dim(data.num_joints), phase_config)
 
 
 def _sampling_abstract(spec: networks.ModelSpec, data: config_lib.DataConfig,
@@ -233,7 +233,7 @@ def load_model(checkpoint, step: int | None = None) -> Model:
         config = config_lib.from_dict(_readable_config(workdir, step))
         manager = checkpoints.open_manager(workdir, read_only=True)
         try:
-            abstract = _sampling_abstract(networks.model_spec(config), config.data,
+            abstract = _sampling_abstract(networks.model_spec(config.model, config.data), config.data,
                                           config.phase if config.model.phase_modulation else None)
             if step is None:  # the newest checkpoint that restores, naming any broken one on stderr
                 state, _, extras, step = checkpoints.restore_newest_good(manager, abstract, partial=True)
@@ -351,7 +351,7 @@ def _load_exported(folder: pathlib.Path) -> Model:
         raise FileNotFoundError(f"{params_path} is missing: export the model again (bin/export)")
     config = config_lib.from_dict(description["config"])
     tree = serialization.msgpack_restore(params_path.read_bytes())
-    expected = _sampling_abstract(networks.model_spec(config), config.data,
+    expected = _sampling_abstract(networks.model_spec(config.model, config.data), config.data,
                                   config.phase if config.model.phase_modulation else None)
     stored = {"params": tree.get("generators", {})}
     if config.model.phase_modulation:
@@ -411,7 +411,7 @@ def model_from_state(config, state, stats_json: dict | None, facts: dict | None,
 def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None) -> Model:
     """A freshly initialised model (untrained): for timing, tests and shape checks."""
     key = jax.random.PRNGKey(seed)
-    spec = networks.model_spec(config)
+    spec = networks.model_spec(config.model, config.data)
     params = jax.jit(lambda k: networks.init_params(spec, k))(key)
     phase_params = None
     if config.model.phase_modulation:

@@ -354,8 +354,8 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
 
     init_from: a run folder to start a new `workdir` from (fine-tuning with other loss / train settings;
     ignored once `workdir` has checkpoints of its own). make_validator: with ``train.eval_every`` > 0,
-    ``make_validator(config, data_dir, stats_json, skeleton_facts) -> validate(state) -> record``
-    (``stitchjax.eval.validation.make_validator``; bin/train passes it).
+    ``make_validator(config.data, config.train, data_dir, stats_json, skeleton_facts) -> validate(state) ->
+    record`` (``stitchjax.eval.validation.make_validator`` with its model builder bound; bin/train passes it).
 
     prepared: (dataset, stats), prepared arrays to skip loading (tests, notebooks); otherwise they are loaded
     from `data_dir` (None = the bundled LAFAN1 sample). train_step: a replacement step function (tests).
@@ -380,7 +380,7 @@ def train(config, workdir: str | os.PathLike, *, data_dir: str | os.PathLike | N
         raise TrainingError(str(error)) from None
     extras = _checkpoint_extras(config.data, config_name, data_dir, dataset, stats)
     saver = runner.Saver(manager, config_json, extras, latest)
-    validate = (make_validator(config, data_dir, extras["stats"], extras["skeleton"])
+    validate = (make_validator(config.data, config.train, data_dir, extras["stats"], extras["skeleton"])
                 if make_validator is not None and spec.train.eval_every > 0 else None)
     step_for = (lambda length: train_step) if train_step is not None else _step_for_length(spec, mesh)
     bar = (tqdm(total=plan.max_steps, initial=int(state.step), unit="step", dynamic_ncols=True)

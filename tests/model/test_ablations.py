@@ -35,9 +35,9 @@ def rollout_of(config, length, seed=0):
     """(result, spec) of one transition of ``length`` frames by a random model of ``config`` (z from the prior)."""
     spec = RO.rollout_spec(config)
     key = jax.random.PRNGKey(seed)
-    params = N.init_params(N.model_spec(config), key)
+    params = N.init_params(N.model_spec(config.model, config.data), key)
     phase_params = phase_lib.init_phase_params(jax.random.fold_in(key, 1),
-                                               F.state_dim(config.data.num_joints, config.data.num_contacts), config.phase)
+                                               F.state_dim(config.data.num_joints), config.phase)
     start, target, offsets = keyframes(seed)
     result = RO.rollout(params, phase_params, (start, target, offsets), jax.random.PRNGKey(5), spec, length, length)
     return result, spec
@@ -68,7 +68,7 @@ def test_without_the_bidirectional_scheme_the_forward_generator_makes_every_fram
 
 def _step(config, params, phase, carry=None, seed=3):
     """One generator step (prior, no ground truth) with the given phase features and carry."""
-    spec = N.model_spec(config).generator
+    spec = N.model_spec(config.model, config.data).generator
     dims = N.generator_input_dims(spec)
     rng = np.random.default_rng(seed)
     x = {name: jnp.asarray(rng.normal(size=(size,)), jnp.float32) for name, size in dims.items()}
@@ -81,7 +81,7 @@ def test_without_phase_modulation_the_decoder_is_an_mlp_and_reads_no_phase():
     phases = np.random.default_rng(0).normal(size=(2, 2 * CONTACTS))
     for switch, reads_phase in (("model.phase_modulation=true", True), ("model.phase_modulation=false", False)):
         config = tiny_config(switch)
-        params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))["forward"]
+        params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))["forward"]
         names = set(params["params"])
         if reads_phase:
             assert {"gating", "expert_0"} <= names and "decoder" not in names
@@ -92,9 +92,9 @@ def test_without_phase_modulation_the_decoder_is_an_mlp_and_reads_no_phase():
         assert (moved > 1e-6) == reads_phase, (switch, moved)
     # a whole transition does not depend on the phase network either: two different ones, the same motion
     config = tiny_config("model.phase_modulation=false")
-    spec, params = RO.rollout_spec(config), N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    spec, params = RO.rollout_spec(config), N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     start, target, offsets = keyframes(0)
-    state_dim = F.state_dim(config.data.num_joints, config.data.num_contacts)
+    state_dim = F.state_dim(config.data.num_joints)
     motions = [RO.rollout(params, phase_lib.init_phase_params(jax.random.PRNGKey(seed), state_dim, config.phase),
                           (start, target, offsets), jax.random.PRNGKey(5), spec, 6, 6)["global_positions"]
                for seed in (1, 2)]
@@ -103,12 +103,12 @@ def test_without_phase_modulation_the_decoder_is_an_mlp_and_reads_no_phase():
 
 def test_without_the_lstm_the_embeddings_feed_the_heads_and_nothing_recurs():
     config = tiny_config("model.lstm=false")
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))["forward"]
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))["forward"]
     names = set(params["params"])
     assert "lstm" not in names and {"state_encoder", "offset_encoder", "target_encoder", "current_head"} <= names
     width = config.model.encoder_widths[-1]
     assert params["params"]["current_head"]["kernel"].shape[0] == 3 * width  # the three embeddings, concatenated
-    spec = N.model_spec(config).generator
+    spec = N.model_spec(config.model, config.data).generator
     other = jax.tree.map(lambda z: z + 1.0, N.initial_carry(spec))
     (carry_a, out_a), (carry_b, out_b) = _step(config, params, np.zeros(8)), _step(config, params, np.zeros(8), other)
     for name in ("velocity", "rotation_update", "mu", "logvar"):
@@ -116,7 +116,7 @@ def test_without_the_lstm_the_embeddings_feed_the_heads_and_nothing_recurs():
     for a, b in zip(carry_b, other):
         np.testing.assert_array_equal(a, b)  # ... and passes through unchanged
     with_lstm = tiny_config()
-    lstm_params = N.init_params(N.model_spec(with_lstm), jax.random.PRNGKey(0))["forward"]
+    lstm_params = N.init_params(N.model_spec(with_lstm.model, with_lstm.data), jax.random.PRNGKey(0))["forward"]
     (_, out_c), (_, out_d) = _step(with_lstm, lstm_params, np.zeros(8)), _step(with_lstm, lstm_params, np.zeros(8),
                                                                              other)
     assert float(jnp.abs(out_c["mu"] - out_d["mu"]).max()) > 1e-6  # with the LSTM the carry matters

@@ -75,8 +75,8 @@ def setup():
     from stitchjax.data import phase
 
     config = C.load_config("tiny")
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
-    phase_params = phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config.data.num_joints, config.data.num_contacts),
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
+    phase_params = phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config.data.num_joints),
                                         config.phase)
     return config, params, phase_params, synthetic_batch()
 
@@ -148,8 +148,8 @@ def test_prepare_dataset_on_synthetic_windows():
     assert all(v.dtype == np.float32 for v in data.values())
     _, gpos = S.forward_kinematics(q, positions, S.LAFAN1_PARENTS)
     np.testing.assert_allclose(data["global_positions"], gpos, rtol=1e-4, atol=1e-3)
-    states = F.dataset_states(data, config.data.velocity_scale)
-    assert states.shape == (n, t, F.state_dim(config.data.num_joints, config.data.num_contacts))
+    states = F.dataset_states(data, F.VELOCITY_SCALE)
+    assert states.shape == (n, t, F.state_dim(config.data.num_joints))
     bad = C.apply_overrides(config, ["data.parents=-1,0,1"])
     with pytest.raises(F.DatasetError, match="parents"):
         F.prepare_dataset(windows, None, bad.data)
@@ -279,7 +279,7 @@ def test_with_every_extension_off_the_objective_is_eq9_term_for_term(setup, post
     config, params, phase_params, batch = setup
     config = C.apply_overrides(config, [f"model.posterior={posterior}"])
     assert C.extensions_on(config) == ()
-    lc, dc = config.loss, config.data
+    lc = config.loss
     assert ((lc.beta_rotation, lc.beta_velocity, lc.beta_contact), lc.kl_weight, lc.stitch_weight, lc.fk_weight,
             lc.gen_weight) == ((1.0, 1.0, 0.1), 1.0, 0.5, 0.5, 0.1)
     length = 7
@@ -300,11 +300,11 @@ def test_with_every_extension_off_the_objective_is_eq9_term_for_term(setup, post
         frames = np.clip(length - i, 0, None) if name == "backward" else np.minimum(i + 1, last)
         before = (length + 1 - i) if name == "backward" else i  # the frame each step starts from
         rotations, contacts = truth["rotations"][:, frames], truth["contacts"][:, frames]
-        velocities = (truth["root_positions"][:, frames] - truth["root_positions"][:, before]) / dc.velocity_scale
+        velocities = (truth["root_positions"][:, frames] - truth["root_positions"][:, before]) / F.VELOCITY_SCALE
         state.append(_hand_l1_mean(o["rotations"] - rotations, mask, (-2, -1))
                      + _hand_l1_mean(o["velocities"] - velocities, mask, -1)
                      + 0.1 * _hand_l1_mean(o["contacts"] - contacts, mask, -1))
-        fk.append(_hand_l1_mean((o["global_positions"] - truth["global_positions"][:, frames]) / dc.position_scale,
+        fk.append(_hand_l1_mean((o["global_positions"] - truth["global_positions"][:, frames]) / F.POSITION_SCALE,
                                 mask, (-2, -1)))
         mu_p, logvar_p = o["mu_blend"], o["logvar_blend"]
         if posterior == "none":  # KL(p || N(0, I))
@@ -315,16 +315,16 @@ def test_with_every_extension_off_the_objective_is_eq9_term_for_term(setup, post
                                      - 1.0, axis=-1)
         kl.append(float(np.sum(per_frame * mask) / mask.sum()))
     overlap = {k: f64(v) for k, v in out["overlap"].items()}
-    stitch = _hand_l1_mean((overlap["forward_positions"] - overlap["backward_positions"]) / dc.position_scale,
+    stitch = _hand_l1_mean((overlap["forward_positions"] - overlap["backward_positions"]) / F.POSITION_SCALE,
                            overlap["mask"].astype(np.float64), (-2, -1))
     # Eq. 7 on the stitched motion's discriminator features: positions relative to the root, root velocity
     positions, root, motion_mask = f64(out["global_positions"]), f64(out["root_positions"]), f64(out["mask"])
-    rel = ((positions[:, :, 1:] - positions[:, :, :1]) / dc.position_scale).reshape(positions.shape[:2] + (-1,))
-    velocity = np.concatenate([np.zeros_like(root[:, :1]), np.diff(root, axis=1)], axis=1) / dc.velocity_scale
+    rel = ((positions[:, :, 1:] - positions[:, :, :1]) / F.POSITION_SCALE).reshape(positions.shape[:2] + (-1,))
+    velocity = np.concatenate([np.zeros_like(root[:, :1]), np.diff(root, axis=1)], axis=1) / F.VELOCITY_SCALE
     features = jnp.asarray(np.concatenate([rel, velocity], axis=-1), jnp.float32)
     adv = 0.0
     for which in ("disc_short", "disc_long"):
-        scores = f64(N.make_discriminator(N.model_spec(config).discriminators, which).apply(params[which], features))
+        scores = f64(N.make_discriminator(N.model_spec(config.model, config.data).discriminators, which).apply(params[which], features))
         window = config.model.disc_short_window if which == "disc_short" else config.model.disc_long_window
         valid = (np.arange(scores.shape[1])[None, :] + window <= motion_mask.sum(1, keepdims=True)).astype(np.float64)
         adv += 0.5 * float(np.sum((scores - 1.0) ** 2 * valid) / valid.sum())

@@ -20,18 +20,22 @@ def tiny_config(*extra):
     return C.apply_overrides(C.load_config("tiny"), list(extra))
 
 
+def _model_spec(config):
+    return N.model_spec(config.model, config.data)
+
+
 def test_init_params_and_generator_shapes():
     config = tiny_config()
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     assert set(params) == {"forward", "backward", "disc_short", "disc_long"}
     kernel = params["forward"]["params"]["current_head"]["kernel"]
     assert not np.allclose(kernel, params["backward"]["params"]["current_head"]["kernel"])  # independent
-    dims = N.generator_input_dims(N.model_spec(config).generator)
+    dims = N.generator_input_dims(N.model_spec(config.model, config.data).generator)
     assert dims["state"] == 22 * 4 + 7 and dims["offset"] == 22 * 4 + 3 + 1 and dims["phase"] == 8
     b = 3
     inputs = [jnp.ones((b, dims[k])) for k in ("state", "target", "offset")]
-    carry = jax.tree.map(lambda x: jnp.zeros((b,) + x.shape), N.initial_carry(N.model_spec(config).generator))
-    generator = N.make_generator(N.model_spec(config).generator)
+    carry = jax.tree.map(lambda x: jnp.zeros((b,) + x.shape), N.initial_carry(N.model_spec(config.model, config.data).generator))
+    generator = N.make_generator(N.model_spec(config.model, config.data).generator)
     apply = jax.jit(jax.vmap(generator.apply, in_axes=(None, 0, 0, 0, 0, 0, 0, 0)))
     new_carry, out = apply(params["forward"], carry, *inputs, jnp.full((b,), 0.5), jnp.ones((b, 8)), jnp.ones((b, 4)))
     assert new_carry[0].shape == (b, 16) and new_carry[1].shape == (b, 16)
@@ -40,16 +44,16 @@ def test_init_params_and_generator_shapes():
     for key in ("mu", "logvar", "mu_target", "logvar_target", "mu_blend", "logvar_blend"):
         assert out[key].shape == (b, 4)
     # eval_shape-friendly init gives the same structure
-    abstract = jax.eval_shape(lambda k: N.init_params(N.model_spec(config), k), jax.random.PRNGKey(0))
+    abstract = jax.eval_shape(lambda k: N.init_params(N.model_spec(config.model, config.data), k), jax.random.PRNGKey(0))
     assert jax.tree.structure(abstract) == jax.tree.structure(params)
 
 
 def test_discriminator_scores_one_per_window_position():
     config = tiny_config("model.disc_long_window=10")  # the paper's 2- and 10-frame windows
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     feats = jnp.ones((2, 12, N.disc_feature_dim(config.data.num_joints)))
-    short = N.make_discriminator(N.model_spec(config).discriminators, "disc_short").apply(params["disc_short"], feats)
-    long = N.make_discriminator(N.model_spec(config).discriminators, "disc_long").apply(params["disc_long"], feats)
+    short = N.make_discriminator(N.model_spec(config.model, config.data).discriminators, "disc_short").apply(params["disc_short"], feats)
+    long = N.make_discriminator(N.model_spec(config.model, config.data).discriminators, "disc_long").apply(params["disc_long"], feats)
     assert short.shape == (2, 11) and long.shape == (2, 3)
 
 
@@ -84,8 +88,8 @@ def test_blend_gaussians_endpoints_and_midpoint():
 
 
 def test_plain_decoder_without_phase_modulation():
-    with_phase = N.init_params(N.model_spec(tiny_config()), jax.random.PRNGKey(0))["forward"]["params"]
-    plain_spec = N.model_spec(tiny_config("model.phase_modulation=false"))
+    with_phase = N.init_params(_model_spec(tiny_config()), jax.random.PRNGKey(0))["forward"]["params"]
+    plain_spec = _model_spec(tiny_config("model.phase_modulation=false"))
     plain = N.init_params(plain_spec, jax.random.PRNGKey(0))["forward"]["params"]
     assert "gating" in with_phase and "expert_0" in with_phase and "decoder" not in with_phase
     assert "gating" not in plain and "expert_0" not in plain and "decoder" in plain
@@ -202,20 +206,20 @@ def test_bfloat16_matmul_rounds_only_the_operands_forward_and_backward():
 def test_generator_matmul_dtype_keeps_parameters_and_changes_outputs_slightly():
     config = tiny_config()
     low = tiny_config("model.matmul_dtype=bfloat16")
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
-    low_params = N.init_params(N.model_spec(low), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
+    low_params = N.init_params(N.model_spec(low.model, low.data), jax.random.PRNGKey(0))
     assert jax.tree.structure(params) == jax.tree.structure(low_params)
     for a, b in zip(jax.tree.leaves(params), jax.tree.leaves(low_params)):
         assert a.dtype == b.dtype == jnp.float32
         np.testing.assert_array_equal(a, b)
-    dims = N.generator_input_dims(N.model_spec(config).generator)
+    dims = N.generator_input_dims(N.model_spec(config.model, config.data).generator)
     rng = np.random.default_rng(0)
     inputs = [jnp.asarray(rng.normal(size=(3, dims[k])), jnp.float32) for k in ("state", "target", "offset")]
-    carry = jax.tree.map(lambda z: jnp.zeros((3,) + z.shape), N.initial_carry(N.model_spec(config).generator))
+    carry = jax.tree.map(lambda z: jnp.zeros((3,) + z.shape), N.initial_carry(N.model_spec(config.model, config.data).generator))
     args = (carry, *inputs, jnp.full((3,), 0.5), jnp.asarray(rng.normal(size=(3, dims["phase"])), jnp.float32),
             jnp.asarray(rng.normal(size=(3, dims["eps"])), jnp.float32))
     def generator(c):  # on accel's layers, which honour model.matmul_dtype
-        return N.make_generator(dataclasses.replace(N.model_spec(c).generator, layers=accel_matmul.LAYERS))
+        return N.make_generator(dataclasses.replace(N.model_spec(c.model, c.data).generator, layers=accel_matmul.LAYERS))
 
     _, out = jax.vmap(lambda *a: generator(config).apply(params["forward"], *a))(*args)
     _, out_low = jax.vmap(lambda *a: generator(low).apply(params["forward"], *a))(*args)
@@ -244,7 +248,7 @@ def test_elu_has_flax_values_and_gradients_formed_from_its_output():
 def test_probed_generator_has_the_plain_generators_parameters_and_values(extra):
     """The training step's probed layers (stitchjax.accel.probes) change nothing a reader of the model sees:
     the same parameter tree from the same key, and bit-identical outputs without probes or tape."""
-    spec = N.model_spec(tiny_config(*extra)).generator
+    spec = _model_spec(tiny_config(*extra)).generator
     dims = N.generator_input_dims(spec)
     args = (N.initial_carry(spec),) + tuple(
         jax.random.normal(jax.random.PRNGKey(i), (dims[k],)) for i, k in enumerate(("state", "target", "offset")))
@@ -263,10 +267,10 @@ def test_probed_generator_has_the_plain_generators_parameters_and_values(extra):
 
 def test_bfloat16_generator_needs_accel_layers_and_init_does_not():
     config = C.apply_overrides(C.load_config("tiny"), ["model.matmul_dtype=bfloat16"])
-    spec = N.model_spec(config).generator
+    spec = N.model_spec(config.model, config.data).generator
     with pytest.raises(ValueError, match="accel.matmul"):
         N.make_generator(spec)  # the plain layers would silently compute in float32
     assert isinstance(N.make_generator(dataclasses.replace(spec, layers=accel_matmul.LAYERS)), N.Generator)
-    fresh = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
-    plain = N.init_params(N.model_spec(C.load_config("tiny")), jax.random.PRNGKey(0))
+    fresh = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
+    plain = N.init_params(_model_spec(C.load_config("tiny")), jax.random.PRNGKey(0))
     assert jax.tree.all(jax.tree.map(lambda a, b: bool(jnp.array_equal(a, b)), fresh, plain))

@@ -34,7 +34,7 @@ def _generator_loss(params, phase_params, batch, key, config, length):
 @pytest.fixture(scope="module")
 def setup():
     config = tiny_config()
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     return config, params, phase_params_for(config), synthetic_batch()
 
 
@@ -52,7 +52,8 @@ def _changed_in_between(batch, seed=5):
 def test_posterior_params_exist_only_with_a_posterior(setup):
     config, params, _, _ = setup
     assert "posterior" in params["forward"]["params"] and "posterior" in params["backward"]["params"]
-    legacy = N.init_params(N.model_spec(tiny_config("model.posterior=none")), jax.random.PRNGKey(0))
+    legacy_config = tiny_config("model.posterior=none")
+    legacy = N.init_params(N.model_spec(legacy_config.model, legacy_config.data), jax.random.PRNGKey(0))
     assert "posterior" not in legacy["forward"]["params"]
 
 
@@ -230,40 +231,6 @@ def test_prior_sample_fraction_trains_and_keeps_the_paper_path_at_zero(setup):
                          RO.rollout_spec(C.apply_overrides(config, ["loss.prior_sample_fraction=-0.1"])), LENGTH)
 
 
-def test_near_keyframe_weight_reweighs_only_the_frames_next_to_the_keyframes(setup):
-    """loss.near_keyframe_weight: at 0 the state and FK terms no longer read the ground truth of each
-    direction's first generated frame (frames 1 and L); at 1 nothing changes; above 1 the terms change."""
-    _, params, phase_params, batch = setup
-    config = tiny_config("model.posterior=none")  # the rollout then reads no in-between ground truth
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
-    key = jax.random.PRNGKey(1)
-    rng = np.random.default_rng(3)
-    changed = dict(batch)
-    for name in ("rotations", "contacts", "global_positions"):  # not the root: velocities span two frames
-        x = np.array(batch[name])
-        for frame in (1, LENGTH):
-            x[:, frame] = rng.normal(size=x[:, frame].shape)
-        changed[name] = jnp.asarray(x, jnp.float32)
-
-    def terms(overrides, b):
-        return _generator_loss(params, phase_params, b, key, C.apply_overrides(config, overrides), LENGTH)[1]
-
-    off = ["loss.near_keyframe_weight=0", "loss.near_keyframe_frames=1"]
-    a, b = terms(off, batch), terms(off, changed)
-    for name in ("state", "fk", "rotation", "contact"):
-        np.testing.assert_allclose(float(a[name]), float(b[name]), rtol=1e-6, err_msg=name)
-    default = terms([], batch)
-    assert abs(float(default["fk"]) - float(terms([], changed)["fk"])) > 1e-3  # by default they are scored
-    assert float(terms(["loss.near_keyframe_weight=1", "loss.near_keyframe_frames=3"], batch)["state"]) == \
-        float(default["state"])
-    assert abs(float(terms(["loss.near_keyframe_weight=8"], batch)["fk"]) - float(default["fk"])) > 1e-4
-    np.testing.assert_array_equal(objective.near_keyframe_weights(5, 4.0, 2), [4, 4, 1, 1, 1])
-    with pytest.raises(ValueError, match="near_keyframe_weight"):
-        terms(["loss.near_keyframe_weight=-1"], batch)
-    with pytest.raises(ValueError, match="near_keyframe_frames"):  # a weight on no frame is refused, not ignored
-        terms(["loss.near_keyframe_weight=8", "loss.near_keyframe_frames=0"], batch)
-
-
 @pytest.mark.parametrize("rho", [0.5, 0.9])
 def test_correlated_noise_keeps_unit_variance_and_has_the_asked_correlation(rho):
     eps = jax.random.normal(jax.random.PRNGKey(0), (12, 40000))
@@ -294,7 +261,7 @@ def test_noise_ramp_factors():
 
 def test_noise_ramp_puts_the_frames_next_to_the_keyframes_on_the_mean_path():
     config = tiny_config()
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     batch = synthetic_batch()
     length = 10
     start, target, offsets = jax.tree.map(lambda x: x[0], BT.keyframes_from_batch(batch, length))
@@ -349,7 +316,7 @@ def test_next_frame_states_are_the_states_of_the_frames_each_step_makes(setup):
     frame L + 1 - j) frame L + 1 - j, each with the root's velocity in that direction's time."""
     config, _, _, batch = setup
     steps, length = 7, LENGTH
-    scale = config.data.velocity_scale
+    scale = F.VELOCITY_SCALE
     got = BT.next_frame_states(batch, length, steps, scale)
     root = np.asarray(batch["root_positions"])
     for name in ("forward", "backward"):

@@ -36,14 +36,14 @@ def synthetic_batch(seed=0, batch=B, frames=T):
 def phase_params_for(config):
     from stitchjax.data import phase
 
-    return phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config.data.num_joints, config.data.num_contacts),
+    return phase.init_phase_params(jax.random.PRNGKey(7), F.state_dim(config.data.num_joints),
                                    config.phase)
 
 
 @pytest.fixture(scope="module")
 def setup():
     config = tiny_config()
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     phase_params = phase_params_for(config)
     # z from the prior, as at inference (the posterior path is tested in test_posterior.py)
     spec = RO.rollout_spec(config)
@@ -107,9 +107,9 @@ def test_each_ablation_runs_and_changes_the_output(setup, switch):
     config, params, phase_params, batch, fn = setup
     ablated = tiny_config(switch)
     if switch.startswith("model.phase_modulation"):
-        params = N.init_params(N.model_spec(ablated), jax.random.PRNGKey(0))
+        params = N.init_params(N.model_spec(ablated.model, ablated.data), jax.random.PRNGKey(0))
     length = jnp.int32(8)
-    full = fn(params if "phase" not in switch else N.init_params(N.model_spec(config), jax.random.PRNGKey(0)),
+    full = fn(params if "phase" not in switch else N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0)),
               phase_params, batch, jax.random.PRNGKey(1), length)
     out = jax.jit(lambda p, pp, b, k, n: BT.rollout_batch(p, pp, b, k, RO.rollout_spec(ablated), n))(
         params, phase_params, batch, jax.random.PRNGKey(1), length)
@@ -184,7 +184,7 @@ def test_taped_scan_gives_the_gradients_of_plain_autodiff(extra):
     def gradients(*flags):
         config = tiny_config(*extra, *flags)
         spec, rollout_batch = specs.train_spec(config), fast_rollout.training_rollout_batch(config.train)
-        params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+        params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
         generators = {k: params[k] for k in ("forward", "backward")}
 
         def loss(gen, pp, b):
@@ -205,7 +205,7 @@ def test_taped_scan_gives_the_gradients_of_plain_autodiff(extra):
 
 def test_taped_scan_refuses_to_run_without_the_after_scan_gradients():
     config = tiny_config("train.scan_remat=taped", "train.weight_gradients_after_scan=false")
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     with pytest.raises(ValueError, match="scan_remat=taped needs train.weight_gradients_after_scan=true"):
         fast_rollout.training_rollout_batch(config.train)(params, phase_params_for(config), synthetic_batch(),
                                                           jax.random.PRNGKey(1), RO.rollout_spec(config), 7)
@@ -215,7 +215,7 @@ def test_recorded_values_are_stacked_once():
     """Recording, an activation that is also the next layer's matmul input comes out of the scan as one
     array, and the LSTM input's parts are the encoders' taped outputs themselves."""
     config = tiny_config()
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     batch = synthetic_batch()
     start, target, offsets = BT.keyframes_from_batch(batch, 7)
     one = jax.tree.map(lambda x: x[0], (start, target, offsets))

@@ -18,7 +18,7 @@ LENGTHS = (1, 2, 5, 7, 10)
 def zero_output_rollout(*overrides):
     """The rollout of a tiny model whose generators output zero (every parameter 0) on a synthetic batch."""
     config = tiny_config(*overrides)
-    params = N.init_params(N.model_spec(config), jax.random.PRNGKey(0))
+    params = N.init_params(N.model_spec(config.model, config.data), jax.random.PRNGKey(0))
     params = {**params, "forward": jax.tree.map(jnp.zeros_like, params["forward"]),
               "backward": jax.tree.map(jnp.zeros_like, params["backward"])}
     spec = RO.rollout_spec(config)

@@ -1,5 +1,6 @@
 """Training: the jitted step, overfitting, resume, data parallelism, NaN guard, signals, the CLI."""
 import dataclasses
+import functools
 import json
 import os
 import pathlib
@@ -283,12 +284,14 @@ def test_cli_help_and_bad_arguments(tmp_path, capsys):
 def test_validation_during_training_logs_model_and_interpolation_rows(dataset, tmp_path):
     from stitchjax.train import reporting
     from stitchjax.eval import validation
+    from stitchjax.sample import trained_model
 
     data, stats = dataset
-    config = tiny_config("train.eval_every=2", "train.eval_windows=3", "train.eval_lengths=5",
-                         "train.eval_samples=2")
+    config = tiny_config("train.eval_every=2", "train.eval_windows=3", "train.eval_lengths=5")
+    model_of_state = functools.partial(trained_model.model_from_state, config)
     summary = train.train(config, tmp_path, max_steps=4, prepared=(data, stats), progress=False,
-                          make_validator=validation.make_validator)
+                          make_validator=functools.partial(validation.make_validator, model_of_state=model_of_state,
+                                                           samples=2))
     records = reporting.read_metrics(tmp_path / "metrics.jsonl")
     rows = [r for r in records if "val_ade_L5" in r]
     assert [r["step"] for r in rows] == [2, 4]
@@ -302,7 +305,8 @@ def test_validation_during_training_logs_model_and_interpolation_rows(dataset, t
     assert "loss" in summary["final"]  # the last training record, not the validation one
     assert "| val_npss_L5 |" in (tmp_path / "report.md").read_text()
     with pytest.raises(FileNotFoundError, match="train.eval_every=2 validates on the dataset's test windows"):
-        validation.make_validator(config, tmp_path / "no_such_folder", {}, None)
+        validation.make_validator(config.data, config.train, tmp_path / "no_such_folder", {}, None,
+                                  model_of_state=model_of_state)
 
 
 def test_learning_rate_decay_scales_the_update_like_a_smaller_learning_rate(dataset):
