@@ -35,6 +35,7 @@ bar; orbax coordinates the checkpoint writes of all processes.
 
 from __future__ import annotations
 
+import functools
 import os
 import pathlib
 import time
@@ -105,9 +106,15 @@ def create_train_state(spec, key: jax.Array, phase_params: Any = None, mesh: Mes
     phase_params: pretrained phase network params, or None to initialise it randomly (phase.init_phase_params)
     — the value when phase modulation is off, and the structure used for restoring.
     """
-    optimizer = make_optimizer(spec.train)
     mesh = parallel.make_mesh() if mesh is None else mesh
     init_key, phase_key, state_key = jax.random.split(key, 3)
+    return _state_initializer(spec, mesh)(init_key, phase_key, state_key, phase_params)
+
+
+@functools.lru_cache(maxsize=8)
+def _state_initializer(spec, mesh: Mesh) -> Callable:
+    """The jitted initialiser of `create_train_state`, kept per process like `_train_step_of`."""
+    optimizer = make_optimizer(spec.train)
 
     def init(init_key, phase_key, state_key, phase_params):
         params = networks.init_params(spec.model, init_key)
@@ -123,7 +130,7 @@ def create_train_state(spec, key: jax.Array, phase_params: Any = None, mesh: Mes
             key=state_key,
         )
 
-    return jax.jit(init, out_shardings=parallel.replicated(mesh))(init_key, phase_key, state_key, phase_params)
+    return jax.jit(init, out_shardings=parallel.replicated(mesh))
 
 
 def init_phase_params(spec, key: jax.Array) -> Any:
@@ -332,15 +339,18 @@ def _fresh_state(spec, dataset: dict, mesh: Mesh) -> TrainState:
     return create_train_state(spec, key, phase_params, mesh)
 
 
+@functools.lru_cache(maxsize=8)
+def _train_step_of(spec, mesh: Mesh, window: int | None):
+    """`make_train_step(spec, mesh, window)`, kept per process: a second run of an equal `specs.TrainSpec` in the
+    same process (a notebook, the tests) reuses the traced and compiled programs instead of tracing them again."""
+    return make_train_step(spec, mesh, window)
+
+
 def _step_for_length(spec, mesh: Mesh) -> Callable:
     """`step_for(length)`: the train step for transition length `length` (one compiled step per window)."""
-    steps: dict = {}
 
     def step_for(length: int):
-        window = schedule.bucket_window(length, spec.train)
-        if window not in steps:
-            steps[window] = make_train_step(spec, mesh, window)
-        return steps[window]
+        return _train_step_of(spec, mesh, schedule.bucket_window(length, spec.train))
 
     return step_for
 

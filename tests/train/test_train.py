@@ -327,3 +327,21 @@ def test_learning_rate_decay_scales_the_update_like_a_smaller_learning_rate(data
     assert float(metrics["loss"]) > 0 and "lr" not in metrics
     for a, b in zip(jax.tree.leaves(after["decayed"]), jax.tree.leaves(after["plain"])):
         np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7)
+
+
+def test_a_second_run_of_an_equal_config_reuses_the_compiled_step(dataset, tmp_path, monkeypatch):
+    data, stats = dataset
+    built = []
+    make = train.make_train_step
+    monkeypatch.setattr(train, "make_train_step", lambda *args: built.append(args) or make(*args))
+    config = tiny_config("train.seed=11")  # a spec no other test trains: the first run must build its step
+    kwargs = dict(prepared=(data, stats), progress=False, max_steps=2)
+    train.train(config, tmp_path / "first", **kwargs)
+    assert len(built) == 1
+    train.train(tiny_config("train.seed=11"), tmp_path / "second", **kwargs)  # an equal config, built anew
+    assert len(built) == 1  # the same traced and compiled step
+    first, second = _params(tmp_path / "first")[0], _params(tmp_path / "second")[0]
+    for a, b in zip(jax.tree.leaves(first), jax.tree.leaves(second)):
+        np.testing.assert_array_equal(a, b)
+    train.train(tiny_config("train.seed=12"), tmp_path / "third", **kwargs)
+    assert len(built) == 2  # another spec: its own step
