@@ -39,7 +39,6 @@ from torch import nn
 import torch.nn.functional as Fn
 
 from stitchjax.data.features import NUM_CONTACTS, POSITION_SCALE, VELOCITY_SCALE
-from stitchjax.data.phase import HIDDEN_LAYERS
 
 __all__ = ["Twin", "Generator", "Posterior", "Discriminator", "PhaseNet", "UnsupportedConfig", "check_supported",
            "batch_to_torch", "jax_noise", "generator_noise", "check_equal_loss", "check_equal_gradients",
@@ -287,7 +286,7 @@ class Twin:
                                "disc_long": Discriminator(disc_in, m.disc_long_window, m.disc_widths)}
         self.generator_modules = nn.ModuleList(self.generators.values())
         self.discriminator_modules = nn.ModuleList(self.discriminators.values())
-        self.phase_net = PhaseNet(state, (config.phase.hidden_dim,) * HIDDEN_LAYERS,
+        self.phase_net = PhaseNet(state, (config.phase.hidden_dim,) * config.phase.num_layers,
                                   2 * NUM_CONTACTS)
         self.phase_net.requires_grad_(False)  # frozen after pretraining
         self.has_phase = True
@@ -841,7 +840,7 @@ def matmul_flops(config, batch: int, length: int) -> dict:
     if m.phase_modulation:
         per_step["experts"] = m.num_experts * decoder + sum(m.num_experts * o for o in outs)  # + blend
         per_step["gating"] = chain([2 * NUM_CONTACTS] + list(m.gating_widths) + [m.num_experts])
-        phase_macs = chain([state] + [config.phase.hidden_dim] * HIDDEN_LAYERS + [2 * NUM_CONTACTS])
+        phase_macs = chain([state] + [config.phase.hidden_dim] * config.phase.num_layers + [2 * NUM_CONTACTS])
     else:
         per_step["decoder"] = decoder
         phase_macs = 0

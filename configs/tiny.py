@@ -16,5 +16,5 @@ def get_config() -> Config:
             batch_size=4, learning_rate=3e-3, min_length=4, max_length=8, length_buckets=(),
             log_every=1, checkpoint_every_steps=100,
         ),
-        phase=PhaseConfig(steps=20, batch_size=64, hidden_dim=16),
+        phase=PhaseConfig(steps=20, batch_size=64, hidden_dim=16, num_layers=1),
     )

@@ -183,6 +183,7 @@ class PhaseConfig:
     none of these settings; the labels' fit is stitchjax.data.phase's named constants)."""
     # --- choices the paper leaves open
     hidden_dim: int = 128  # reason: small MLP from one frame's state to the 8 phase features
+    num_layers: int = 2  # reason: two ELU hidden layers suffice for the phase regression
     steps: int = 5000  # reason: the phase regression converges quickly
     batch_size: int = 512  # reason: frames are cheap
 
@@ -523,7 +524,6 @@ RETIRED_FIELDS = {
     ("data", "velocity_scale"): Retired(10.0, _LAST_BEFORE_CONSTANTS),  # data.features.VELOCITY_SCALE
     ("data", "num_contacts"): Retired(4, _LAST_BEFORE_CONSTANTS),  # data.features.NUM_CONTACTS
     ("train", "eval_samples"): Retired(4, _LAST_BEFORE_CONSTANTS),  # eval.validation.VALIDATION_SAMPLES
-    ("phase", "num_layers"): Retired(2, _LAST_BEFORE_CONSTANTS),  # data.phase.HIDDEN_LAYERS
 }
 """Removed fields, (section, field) -> :class:`Retired` (None: read nowhere, any value dropped). :func:`from_dict`
 drops one that a saved config holds at the value the code now always uses, and refuses any other value."""

@@ -135,7 +135,7 @@ def test_a_removed_field_loads_at_the_value_kept_and_is_refused_at_any_other_nam
                if (s, f) in C.RETIRED_FIELDS}
     assert ("model", "noise_correlation") in retired and ("phase", "include_reversed") in retired
     assert {("loss", "near_keyframe_weight"), ("data", "position_scale"), ("data", "num_contacts"),
-            ("train", "eval_samples"), ("phase", "num_layers")} <= retired
+            ("train", "eval_samples")} <= retired
     config = C.from_dict(shipped)
     assert config.name == "lafan1_cpu_release" and config.loss.foot_skate_weight == 128.0
     for section, field in sorted(C.RETIRED_FIELDS):
@@ -193,7 +193,7 @@ def test_every_named_config_keeps_its_values():
     assert _differences(h36m, paper) == {"data.dataset", "data.train_subjects", "data.fps", "data.parents"}
     assert (h36m.data.num_joints, h36m.data.fps, h36m.data.window, h36m.data.offset) == (21, 25.0, 52, 20)
     tiny = configs["tiny"]
-    assert (tiny.model.lstm_size, tiny.model.latent_dim, tiny.train.max_length, tiny.phase.hidden_dim) == (16, 4, 8, 16)
+    assert (tiny.model.lstm_size, tiny.model.latent_dim, tiny.train.max_length, tiny.phase.num_layers) == (16, 4, 8, 1)
     cpu = configs["lafan1_cpu"]
     assert _differences(cpu, paper) == {
         "data.validation_files", "model.encoder_widths", "model.lstm_size", "model.decoder_widths",

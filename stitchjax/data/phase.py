@@ -50,7 +50,6 @@ NUM_FREQUENCIES = 31  # a 0.125 Hz grid, finer than a 2 s window resolves
 SMOOTHING_SECONDS = 0.05  # removes 1-2 frame contact flicker
 RIDGE = 1.0  # keeps near-degenerate low-frequency fits finite
 # The phase network and its pretraining:
-HIDDEN_LAYERS = 2  # ELU hidden layers of phase.hidden_dim units: enough for the phase regression
 LEARNING_RATE = 1e-3  # Adam's default scale for a small MLP
 
 _FIELDS = tuple(f.name for f in dataclasses.fields(PhaseConfig))
@@ -279,7 +278,7 @@ def init_phase_params(key: jax.Array, state_dim: int, settings: PhaseConfig | No
                       **overrides: Any) -> dict:
     """Fresh PhaseNetwork parameters for states of size ``state_dim`` (J*4 + 7)."""
     settings = phase_settings(settings, **overrides)
-    network = PhaseNetwork(hidden_dims=(settings.hidden_dim,) * HIDDEN_LAYERS, num_outputs=num_outputs)
+    network = PhaseNetwork(hidden_dims=(settings.hidden_dim,) * settings.num_layers, num_outputs=num_outputs)
     return network.init(key, jnp.zeros((1, state_dim), jnp.float32))
 
 

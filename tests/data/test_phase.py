@@ -78,10 +78,9 @@ def test_bad_input_raises():
 
 
 def test_settings_come_from_the_configs_phase_section():
-    params = phase.init_phase_params(jax.random.key(0), 95, PhaseConfig(hidden_dim=16))
-    hidden = [params["params"][f"hidden_{i}"]["kernel"].shape for i in range(phase.HIDDEN_LAYERS)]
-    assert hidden == [(95, 16)] + [(16, 16)] * (phase.HIDDEN_LAYERS - 1)
-    assert f"hidden_{phase.HIDDEN_LAYERS}" not in params["params"]
+    params = phase.init_phase_params(jax.random.key(0), 95, PhaseConfig(hidden_dim=16, num_layers=1))
+    assert params["params"]["hidden_0"]["kernel"].shape == (95, 16)
+    assert "hidden_1" not in params["params"]
 
 
 def test_phase_features_shape():
@@ -97,7 +96,7 @@ def test_pretrain_reduces_loss_on_learnable_mapping():
     states = jax.random.normal(jax.random.key(1), (512, 20))
     weights = jax.random.normal(jax.random.key(2), (20, 8)) / np.sqrt(20)
     labels = jnp.tanh(states @ weights)
-    settings = dict(hidden_dim=32, steps=300, batch_size=64)
+    settings = dict(hidden_dim=32, num_layers=2, steps=300, batch_size=64)
     start = phase.phase_loss(phase.init_phase_params(key, 20, None, **settings), states, labels)
     params, final_loss = phase.pretrain_phase(key, states, labels, None, **settings)
     assert float(final_loss) < 0.3 * float(start)

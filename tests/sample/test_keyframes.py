@@ -243,7 +243,7 @@ def test_cli_negative_offsets_parse_and_a_too_fast_target_is_refused(tiny_run, t
 
 
 TINY_WIDTHS = ["model.encoder_widths=16,16,16", "model.lstm_size=16", "model.latent_dim=4", "model.decoder_widths=16,16",
-               "model.gating_widths=8,8", "model.disc_widths=16,16", "phase.hidden_dim=16"]
+               "model.gating_widths=8,8", "model.disc_widths=16,16", "phase.hidden_dim=16", "phase.num_layers=1"]
 
 
 def test_cmu_take_at_120_fps_keeps_its_frame_numbers_rate_and_count(shared_data):
