@@ -196,6 +196,17 @@ def _phase_init(data: config_lib.DataConfig, phase_config: config_lib.PhaseConfi
     return phase.init_phase_params(key, features.state_dim(data.num_joints), phase_config)
 
 
+@functools.lru_cache(maxsize=8)
+def _initializer(spec: networks.ModelSpec, data: config_lib.DataConfig, phase_config: config_lib.PhaseConfig | None):
+    """jit of key -> (generator and discriminator params, phase params or None) of `random_model`, compiled once
+    per process for equal settings."""
+    def init(key):
+        phase_params = None if phase_config is None else _phase_init(data, phase_config, jax.random.fold_in(key, 1))
+        return networks.init_params(spec, key), phase_params
+
+    return jax.jit(init)
+
+
 def _sampling_abstract(spec: networks.ModelSpec, data: config_lib.DataConfig,
                        phase_config: config_lib.PhaseConfig | None) -> dict:
     """Shapes (replicated) of what sampling restores from a train state: {"params": {"forward", "backward"}}
@@ -410,12 +421,9 @@ def model_from_state(config, state, stats_json: dict | None, facts: dict | None,
 
 def random_model(config, seed: int = 0, joint_names: Sequence[str] | None = None) -> Model:
     """A freshly initialised model (untrained): for timing, tests and shape checks."""
-    key = jax.random.PRNGKey(seed)
-    spec = networks.model_spec(config.model, config.data)
-    params = jax.jit(lambda k: networks.init_params(spec, k))(key)
-    phase_params = None
-    if config.model.phase_modulation:
-        phase_params = _phase_init(config.data, config.phase, jax.random.fold_in(key, 1))
+    phase_config = config.phase if config.model.phase_modulation else None
+    params, phase_params = _initializer(networks.model_spec(config.model, config.data), config.data,
+                                        phase_config)(jax.random.PRNGKey(seed))
     fields = _facts_fields(config.data, None)
     if joint_names is not None:
         fields["joint_names"] = tuple(joint_names)

@@ -39,8 +39,11 @@ def one_rollout(model, seed=0):
     target = {"rotations": w.rotations[0, 9 + LENGTH + 1], "root_position": w.positions[0, 9 + LENGTH + 1, 0],
               "contacts": w.contacts[0, 9 + LENGTH + 1]}
     as32 = lambda tree: jax.tree.map(lambda x: np.asarray(x, np.float32), tree)  # noqa: E731
-    return RO.rollout(model.params, model.phase_params, (as32(start), as32(target), as32(w.positions[0, 9])),
-                      jax.random.PRNGKey(seed), model.rollout_spec, LENGTH, LENGTH)
+    return _jitted_rollout(model.params, model.phase_params, (as32(start), as32(target), as32(w.positions[0, 9])),
+                           jax.random.PRNGKey(seed), model.rollout_spec, LENGTH, LENGTH)
+
+
+_jitted_rollout = jax.jit(RO.rollout, static_argnums=(4, 5, 6))  # one program instead of op-by-op dispatch
 
 
 def distance(a, b):
