@@ -44,7 +44,7 @@ rows = [json.loads(line) for line in metrics.read_text().splitlines() if line.st
 train_rows = [r for r in rows if "loss" in r]
 cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), "?")
 commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True, text=True).stdout
+dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".", ":!experiments/paper_ablations"], capture_output=True, text=True).stdout
 record["parts"].append({
     "started_utc": datetime.datetime.fromtimestamp(start, datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%S"),
     "wall_s": end - start, "commit": commit + ("+changes" if dirty.strip() else ""),
