@@ -355,13 +355,11 @@ def init_params(spec: ModelSpec, key) -> dict:
                               jnp.zeros((), jnp.float32), dummy["phase"], dummy["eps"], next_state)
 
     k_fwd, k_bwd, k_short, k_long = jax.random.split(key, 4)
-    # both generators from one vmapped init: the same values as two calls, half the program to compile
-    both = jax.vmap(init_generator)(jnp.stack([k_fwd, k_bwd]))
     frames = max(d.long_window, d.short_window)
     disc_in = jnp.zeros((1, frames, d.feature_dim), jnp.float32)
     return {
-        "forward": jax.tree.map(lambda x: x[0], both),
-        "backward": jax.tree.map(lambda x: x[1], both),
+        "forward": init_generator(k_fwd),
+        "backward": init_generator(k_bwd),
         "disc_short": make_discriminator(d, "disc_short").init(k_short, disc_in),
         "disc_long": make_discriminator(d, "disc_long").init(k_long, disc_in),
     }
